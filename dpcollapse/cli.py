@@ -1,0 +1,215 @@
+"""The ``dpcollapse`` command line: check, run, mesh, plot.
+
+Exit status: 0 done, 2 bad input, 3 no convergence, 4 mesh failure, 130 interrupted
+(see :mod:`dpcollapse.errors`). Errors are one line on stderr, printed by rank 0 only.
+"""
+
+from __future__ import annotations
+
+import os
+
+# One thread per MPI rank: set before anything numeric (numpy, PETSc) is imported.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import logging  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Any, Sequence  # noqa: E402
+
+import click  # noqa: E402
+
+from dpcollapse.config import Config, load_config  # noqa: E402
+from dpcollapse.errors import DpcollapseError, Interrupted  # noqa: E402
+
+try:  # an editable install made before dpcollapse/__init__.py existed sees a namespace package
+    from dpcollapse import __version__
+except ImportError:
+    from importlib.metadata import version as _dist_version
+
+    __version__ = _dist_version("dpcollapse")
+
+_RANK_VARS = ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK", "MV2_COMM_WORLD_RANK")
+
+
+def _rank() -> int:
+    """MPI rank of this process; 0 when not under an MPI launcher.
+
+    mpi4py is imported lazily and only when it is already loaded or a launcher set a rank
+    variable, so a serial ``check`` never initializes MPI.
+    """
+    if "mpi4py.MPI" not in sys.modules and not any(v in os.environ for v in _RANK_VARS):
+        return 0
+    try:
+        from mpi4py import MPI
+    except ImportError:
+        return 0
+    return MPI.COMM_WORLD.rank
+
+
+def _setup_logging(quiet: bool = False) -> None:
+    """INFO on rank 0 (WARNING if quiet), WARNING on the other ranks.
+
+    ``force=True`` because ffcx configures the root logger at import.
+    """
+    rank = _rank()
+    level = logging.WARNING if quiet or rank != 0 else logging.INFO
+    fmt = "%(asctime)s %(levelname)s %(name)s" + (f" [rank {rank}]" if rank else "")
+    # Third-party loggers (ffcx's JIT build lines, matplotlib) stay at WARNING.
+    logging.basicConfig(level=logging.WARNING, format=fmt + ": %(message)s", force=True)
+    logging.getLogger("dpcollapse").setLevel(level)
+
+
+def _lazy(module: str, name: str) -> Any:
+    """``from module import name`` at call time; a missing module becomes a one-line error."""
+    import importlib
+
+    try:
+        return getattr(importlib.import_module(module), name)
+    except ModuleNotFoundError as exc:
+        if exc.name and module.startswith(exc.name):
+            raise DpcollapseError(f"{module} is not available in this installation") from None
+        raise
+
+
+class _Group(click.Group):
+    """Turns Ctrl-C inside a command into :class:`Interrupted` (exit 130, one line)."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            raise Interrupted("interrupted") from None
+
+
+_set_option = click.option(
+    "--set", "overrides", multiple=True, metavar="SECTION.KEY=VALUE",
+    help="Override one config value (YAML-parsed); repeatable.",
+)
+_config_arg = click.argument("config", type=click.Path(dir_okay=False, path_type=Path))
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="dpcollapse")
+def cli() -> None:
+    """Free-surface granular collapses (regularized Drucker–Prager, ALE) on FEniCSx."""
+
+
+@cli.command()
+@_config_arg
+@_set_option
+def check(config: Path, overrides: tuple[str, ...]) -> int:
+    """Validate CONFIG and print the key derived numbers."""
+    cfg = load_config(config, overrides)
+    if _rank() == 0:
+        click.echo(summary(cfg, config))
+    return 0
+
+
+def summary(cfg: Config, source: Path | str | None = None) -> str:
+    """A few lines describing a valid config (derived numbers with units)."""
+    g, t = cfg.geometry, cfg.time
+    lines = [
+        f"{source}: valid" if source else "config: valid",
+        f"  mu_s = {cfg.material.mu_s:.4f}  mu_b = {cfg.boundary.mu_bed:.4f}  "
+        f"mu_l = {cfg.boundary.mu_wall:.4f}",
+        f"  mass: height {g.height:g} m, base {g.base_length:g} m, "
+        f"top length {g.top_length:.4f} m, area {g.area:.4f} m^2",
+        f"  time: dt {t.dt:g} s, end {t.end_time:g} s, at most {t.max_steps} steps",
+        f"  output: {cfg.output.directory}",
+    ]
+    return "\n".join(lines)
+
+
+@cli.command()
+@_config_arg
+@_set_option
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Run directory (default: output.directory of the config).")
+@click.option("--quiet", is_flag=True, help="No progress bar; warnings and errors only.")
+@click.option("--resume", is_flag=True, help="Continue from the run directory's last checkpoint.")
+def run(config: Path, overrides: tuple[str, ...], out: Path | None, quiet: bool,
+        resume: bool) -> int:
+    """Simulate the collapse described by CONFIG."""
+    cfg = load_config(config, overrides)
+    if quiet:
+        _setup_logging(quiet=True)
+    run_simulation = _lazy("dpcollapse.simulation", "run_simulation")
+    run_simulation(cfg, run_dir=Path(out or cfg.output.directory), quiet=quiet, resume=resume)
+    return 0
+
+
+@cli.command()
+@_config_arg
+@_set_option
+@click.option("--out", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Output .msh file (default: meshes/<config stem>.msh).")
+def mesh(config: Path, overrides: tuple[str, ...], out: Path | None) -> int:
+    """Write the initial mesh of CONFIG as a gmsh .msh file."""
+    cfg = load_config(config, overrides)
+    write_msh = _lazy("dpcollapse.geometry.trapezoid", "write_msh")
+    write_msh(cfg, Path(out or Path("meshes") / f"{config.stem}.msh"))
+    return 0
+
+
+def _parse_times(values: Sequence[str]) -> list[float] | None:
+    """'0,0.1' (repeatable) -> [0.0, 0.1]; nothing -> None."""
+    items = [s.strip() for v in values for s in v.split(",") if s.strip()]
+    if not items:
+        return None
+    try:
+        times = [float(s) for s in items]
+    except ValueError:
+        raise click.BadParameter(f"{','.join(values)!r}: must be comma-separated numbers (s)",
+                                 param_hint="'--times'") from None
+    return times
+
+
+@cli.command()
+@click.argument("run_dir", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.option("--times", multiple=True, metavar="T1,T2,...",
+              help="Times [s] to plot, comma-separated (default: all outputs).")
+def plot(run_dir: Path, times: tuple[str, ...]) -> int:
+    """Plot the results in RUN_DIR."""
+    parsed = _parse_times(times)
+    plot_run = _lazy("dpcollapse.plot", "plot_run")
+    plot_run(Path(run_dir), times=parsed)
+    return 0
+
+
+def _error(message: str) -> None:
+    """One line on stderr, from rank 0 only."""
+    if _rank() == 0:
+        click.echo("dpcollapse: error: " + " ".join(str(message).split()), err=True)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line on ``argv`` (default: sys.argv[1:]) and return the exit status."""
+    _setup_logging()
+    try:
+        rv = cli.main(args=argv, prog_name="dpcollapse", standalone_mode=False)
+    except DpcollapseError as exc:
+        _error(str(exc) or exc.__class__.__name__)
+        return exc.exit_code
+    except click.UsageError as exc:
+        hint = f" (see '{exc.ctx.command_path} --help')" if exc.ctx else ""
+        _error(exc.format_message() + hint)
+        return exc.exit_code
+    except click.ClickException as exc:
+        _error(exc.format_message())
+        return exc.exit_code
+    except (click.Abort, KeyboardInterrupt):
+        _error("interrupted")
+        return Interrupted.exit_code
+    return rv if isinstance(rv, int) else 0
+
+
+def entry() -> None:
+    """Console script ``dpcollapse``."""
+    sys.exit(main())
+
+
+__all__ = ["cli", "entry", "main", "summary"]
+
+if __name__ == "__main__":
+    entry()

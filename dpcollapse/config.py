@@ -1,0 +1,444 @@
+"""The validated run configuration: a tree of frozen pydantic models built from YAML.
+
+Defaults live only in the model fields below; units are SI, angles are in degrees.
+Every failure, from a missing file to a value out of range, raises
+:class:`dpcollapse.errors.ConfigError` with one line naming the key path, the value given
+and what is allowed, e.g. ``material.density = -3.0: must be > 0 (kg/m^3)``.
+
+Public API: :func:`load_config`, :func:`validate_config`, :func:`with_overrides`,
+:func:`config_to_dict`, :func:`save_config` and the :class:`Config` model tree.
+"""
+
+from __future__ import annotations
+
+import math
+from difflib import get_close_matches
+from pathlib import Path
+from typing import Annotated, Any, Literal, Sequence
+
+import annotated_types as at
+import yaml
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError
+
+from dpcollapse.errors import ConfigError
+
+__all__ = [
+    "BoundaryConfig",
+    "Config",
+    "GeometryConfig",
+    "MaterialConfig",
+    "NumericsConfig",
+    "OutputConfig",
+    "TimeConfig",
+    "config_to_dict",
+    "load_config",
+    "save_config",
+    "validate_config",
+    "with_overrides",
+]
+
+
+# ----------------------------------------------------------------------------- field types
+def _as_number(v: Any) -> Any:
+    """Accept int/float and numeric strings (YAML 1.1 reads ``1e-3`` as a string); no bools."""
+    if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+        raise PydanticCustomError("dp_number", "must be a number")
+    if isinstance(v, str):
+        try:
+            return float(v)
+        except ValueError:
+            raise PydanticCustomError("dp_number", "must be a number") from None
+    return v
+
+
+def _as_integer(v: Any) -> Any:
+    """Refuse bools, which pydantic would otherwise take as 0/1."""
+    if isinstance(v, bool):
+        raise PydanticCustomError("dp_integer", "must be an integer")
+    return v
+
+
+def _as_path(v: Any) -> Any:
+    """Refuse empty strings and non-strings as paths."""
+    if isinstance(v, Path):
+        return v
+    if not isinstance(v, str) or not v.strip():
+        raise PydanticCustomError("dp_path", "must be a non-empty path")
+    return v
+
+
+Number = Annotated[float, BeforeValidator(_as_number)]
+Count = Annotated[int, BeforeValidator(_as_integer)]
+PathStr = Annotated[Path, BeforeValidator(_as_path)]
+
+
+def _f(default: Any, unit: str, doc: str, **constraints: Any) -> Any:
+    """A field with its SI unit kept in the schema (for error messages) and the description."""
+    desc = f"{doc} [{unit}]" if unit else doc
+    if "gt" in constraints or "ge" in constraints or "lt" in constraints or "le" in constraints:
+        constraints.setdefault("allow_inf_nan", False)
+    return Field(default, description=desc, json_schema_extra={"unit": unit}, **constraints)
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+# ----------------------------------------------------------------------------- sections
+class GeometryConfig(_Section):
+    """Initial trapezoidal mass against a left wall, on a bed inclined by ``bed_angle``."""
+
+    shape: Literal["trapezoid"] = _f("trapezoid", "", "Shape of the initial mass")
+    height: Number = _f(0.25, "m", "Initial height h0 of the mass", gt=0)
+    base_length: Number = _f(0.297, "m", "Base length l0, from the wall to the toe", gt=0)
+    flank_angle: Number = _f(
+        70.0, "deg", "Angle alpha0 at which the right flank rises back over the mass", gt=0, le=90
+    )
+    bed_angle: Number = _f(
+        0.0, "deg", "Slope theta of the bed; gravity = g (sin θ, -cos θ) in slope coordinates",
+        ge=0, lt=90,
+    )
+    mesh_size: Number = _f(0.01, "m", "Cell size of the mesh (and of remeshing)", gt=0)
+    surface_mesh_size: Number | None = _f(
+        None, "m", "Cell size on the free surface (refinement); null means mesh_size", gt=0
+    )
+    mesh_file: PathStr | None = _f(
+        None, "", "Gmsh .msh file to use instead of meshing the trapezoid "
+        "(relative paths resolve against the config file's folder)",
+    )
+
+    @property
+    def top_length(self) -> float:
+        """Length of the flat top, wall to the flank's crest: l0 - h0/tan(alpha0) [m]."""
+        return self.base_length - self.height / math.tan(math.radians(self.flank_angle))
+
+    @property
+    def area(self) -> float:
+        """Area of the trapezoid, (l0 + top_length)/2 * h0 [m^2]."""
+        return 0.5 * (self.base_length + self.top_length) * self.height
+
+    @field_validator("mesh_file", mode="after")
+    @classmethod
+    def _mesh_file_exists(cls, v: Path | None, info: ValidationInfo) -> Path | None:
+        if v is None:
+            return None
+        base = Path((info.context or {}).get("base_dir", Path.cwd()))
+        path = (v if v.is_absolute() else base / v).resolve()
+        if not path.is_file():
+            raise ConfigError(f"geometry.mesh_file = {v}: file not found")
+        return path
+
+    @model_validator(mode="after")
+    def _fits(self) -> GeometryConfig:
+        top = self.top_length
+        if top <= 0:
+            least = math.degrees(math.atan2(self.height, self.base_length))
+            raise ConfigError(
+                f"geometry.flank_angle = {_fmt(self.flank_angle)}: the flank crosses the wall "
+                f"(top length = {top:.3g} m); must be > {least:.3g} degrees for height "
+                f"{_fmt(self.height)} m and base_length {_fmt(self.base_length)} m"
+            )
+        limit = min(self.height, top)
+        for key in ("mesh_size", "surface_mesh_size"):
+            h = getattr(self, key)
+            if h is not None and h >= limit:
+                raise ConfigError(
+                    f"geometry.{key} = {_fmt(h)}: larger than the mass "
+                    f"(must be < {limit:.3g} m = min(height, top length))"
+                )
+        return self
+
+
+class MaterialConfig(_Section):
+    """Granular material: regularized Drucker–Prager with a Newtonian part."""
+
+    rheology: Literal["drucker_prager"] = _f("drucker_prager", "", "Rheology of the material")
+    density: Number = _f(1550.0, "kg/m^3", "Bulk density rho", gt=0)
+    viscosity: Number = _f(1.0, "Pa s", "Newtonian viscosity eta", ge=0)
+    friction_angle: Number = _f(25.5, "deg", "Internal friction angle; mu_s = tan", gt=0, lt=90)
+    gravity: Number = _f(9.81, "m/s^2", "Magnitude g of gravity", gt=0)
+
+    @property
+    def mu_s(self) -> float:
+        """Internal friction coefficient tan(friction_angle) [-]."""
+        return math.tan(math.radians(self.friction_angle))
+
+
+class BoundaryConfig(_Section):
+    """Coulomb friction on the bed and on the left wall."""
+
+    bed_friction_angle: Number = _f(25.5, "deg", "Bed friction angle; mu_b = tan", ge=0, lt=90)
+    wall_friction_angle: Number = _f(
+        10.2, "deg", "Left-wall friction angle; mu_l = tan", ge=0, lt=90
+    )
+
+    @property
+    def mu_bed(self) -> float:
+        """Bed friction coefficient mu_b = tan(bed_friction_angle) [-]."""
+        return math.tan(math.radians(self.bed_friction_angle))
+
+    @property
+    def mu_wall(self) -> float:
+        """Wall friction coefficient mu_l = tan(wall_friction_angle) [-]."""
+        return math.tan(math.radians(self.wall_friction_angle))
+
+
+class NumericsConfig(_Section):
+    """Regularization, the fixed-point iteration, the linear solver and the moving mesh."""
+
+    method: Literal["regularized"] = _f("regularized", "", "Treatment of the yield stress")
+    epsilon: Number = _f(1.0e-6, "1/s", "Regularization of |D|", gt=0)
+    epsilon_friction: Number = _f(1.0e-6, "m/s", "Regularization of |u_T| in wall friction", gt=0)
+    nonlinear_rtol: Number = _f(
+        1.0e-3, "", "Fixed-point stop: ||du|| <= rtol*||u|| + atol (relative part)", gt=0, lt=1
+    )
+    nonlinear_atol: Number = _f(1.0e-7, "m/s", "Fixed-point stop, absolute part", ge=0)
+    max_iterations: Count = _f(100, "", "Most fixed-point iterations per time step", ge=1)
+    linear_solver: Literal["mumps", "superlu_dist"] = _f("mumps", "", "Direct LU solver")
+    mesh_velocity_penalty: Number = _f(
+        1.0e3, "", "Penalty xi-hat on (w-u).n on the free surface (dimensionless, applied as xi-hat/h)", gt=0
+    )
+    remesh_min_angle: Number = _f(
+        12.0, "deg", "Remesh when the smallest cell angle falls below this", gt=0, lt=60
+    )
+    ale: bool = Field(True, strict=True, description="Move the mesh (false: fixed domain)")
+
+
+class TimeConfig(_Section):
+    """Time stepping, output cadence and the at-rest stopping rule."""
+
+    dt: Number = _f(1.0e-3, "s", "Time step", gt=0)
+    dt_min: Number = _f(1.0e-6, "s", "Smallest time step when halving on failure", gt=0)
+    end_time: Number = _f(2.0, "s", "Simulated time cap", gt=0)
+    output_every: Count = _f(20, "", "Write XDMF output every N steps", ge=1)
+    checkpoint_every: Count = _f(50, "", "Write a restart checkpoint every N steps", ge=1)
+    rest_speed: Number = _f(1.0e-3, "m/s", "At rest when max |u| stays below this ...", gt=0)
+    rest_duration: Number = _f(0.05, "s", "... for this long; then the run ends", ge=0)
+
+    @property
+    def max_steps(self) -> int:
+        """Number of steps of size dt needed to reach end_time (the step cap) [-]."""
+        return max(1, math.ceil(self.end_time / self.dt - 1e-9))
+
+    @model_validator(mode="after")
+    def _dt_order(self) -> TimeConfig:
+        if self.dt_min > self.dt:
+            raise ConfigError(
+                f"time.dt_min = {_fmt(self.dt_min)}: must be <= time.dt = {_fmt(self.dt)} (s)"
+            )
+        return self
+
+
+class OutputConfig(_Section):
+    """Where results go."""
+
+    directory: PathStr = _f(
+        Path("runs/rigid"), "", "Run directory, relative to the working directory (--out overrides)"
+    )
+
+
+class Config(_Section):
+    """The whole configuration; every section has defaults."""
+
+    geometry: GeometryConfig = Field(default_factory=GeometryConfig, description="Initial mass")
+    material: MaterialConfig = Field(default_factory=MaterialConfig, description="Material")
+    boundary: BoundaryConfig = Field(default_factory=BoundaryConfig, description="Friction")
+    numerics: NumericsConfig = Field(default_factory=NumericsConfig, description="Solvers")
+    time: TimeConfig = Field(default_factory=TimeConfig, description="Time stepping")
+    output: OutputConfig = Field(default_factory=OutputConfig, description="Output")
+
+    @property
+    def gravity_vector(self) -> tuple[float, float]:
+        """Gravity in slope coordinates, g (sin θ, -cos θ) [m/s^2]."""
+        theta = math.radians(self.geometry.bed_angle)
+        g = self.material.gravity
+        return (g * math.sin(theta), -g * math.cos(theta))
+
+
+# ----------------------------------------------------------------------------- errors
+_TYPE_TEXT = {
+    "dp_number": "must be a number",
+    "float_type": "must be a number",
+    "float_parsing": "must be a number",
+    "dp_integer": "must be an integer",
+    "int_type": "must be an integer",
+    "int_parsing": "must be an integer",
+    "int_from_float": "must be an integer",
+    "bool_type": "must be true or false",
+    "bool_parsing": "must be true or false",
+    "dp_path": "must be a non-empty path",
+    "path_type": "must be a path",
+    "model_type": "must be a mapping of keys",
+    "model_attributes_type": "must be a mapping of keys",
+    "finite_number": "must be a finite number",
+}
+_RANGE_TYPES = {"greater_than", "greater_than_equal", "less_than", "less_than_equal"}
+
+
+def _fmt(value: Any) -> str:
+    """A value as the user would write it in YAML, one line, not too long."""
+    if value is None:
+        text = "null"
+    elif isinstance(value, bool):
+        text = "true" if value else "false"
+    else:
+        text = repr(value) if not isinstance(value, Path) else str(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _model_at(loc: Sequence[str]) -> type[BaseModel] | None:
+    """The model class found by walking ``loc`` down from Config (None if not a section)."""
+    model: type[BaseModel] = Config
+    for part in loc:
+        field = model.model_fields.get(part)
+        ann = getattr(field, "annotation", None)
+        if not (isinstance(ann, type) and issubclass(ann, BaseModel)):
+            return None
+        model = ann
+    return model
+
+
+def _allowed_range(section: str, key: str) -> str:
+    """'must be in (0, 90] degrees' / 'must be > 0 (kg/m^3)' from the field's constraints."""
+    field = _model_at([section]).model_fields[key]  # type: ignore[union-attr]
+    unit = (field.json_schema_extra or {}).get("unit", "")  # type: ignore[union-attr]
+    lo = hi = None
+    for m in field.metadata:
+        if isinstance(m, (at.Gt, at.Ge)):
+            lo = ("(" if isinstance(m, at.Gt) else "[", getattr(m, "gt", getattr(m, "ge", None)))
+        if isinstance(m, (at.Lt, at.Le)):
+            hi = (")" if isinstance(m, at.Lt) else "]", getattr(m, "lt", getattr(m, "le", None)))
+    if lo and hi:
+        unit = "degrees" if unit == "deg" else unit
+        return f"must be in {lo[0]}{lo[1]:g}, {hi[1]:g}{hi[0]} {unit}".rstrip()
+    op, bound = ((">" if lo[0] == "(" else ">=", lo[1]) if lo else
+                 ("<" if hi[0] == ")" else "<=", hi[1]))  # type: ignore[index]
+    unit = "degrees" if unit == "deg" else unit
+    return f"must be {op} {bound:g}" + (f" ({unit})" if unit else "")
+
+
+def _from_validation_error(exc: ValidationError) -> ConfigError:
+    """The first pydantic error as one line: key path, value given, what is allowed."""
+    err = exc.errors()[0]
+    loc = [str(p) for p in err["loc"]]
+    key = ".".join(loc)
+    kind = err["type"]
+    if kind == "extra_forbidden":
+        parent = _model_at(loc[:-1])
+        names = list(parent.model_fields) if parent else []
+        close = get_close_matches(loc[-1], names, n=1)
+        hint = f"did you mean '{close[0]}'?" if close else "allowed: " + ", ".join(names)
+        what = "unknown section" if len(loc) == 1 else "unknown key"
+        return ConfigError(f"{key}: {what}; {hint}")
+    value = _fmt(err.get("input"))
+    if kind in _RANGE_TYPES and len(loc) == 2:
+        text = _allowed_range(*loc)
+    elif kind == "literal_error":
+        text = "must be one of " + str(err.get("ctx", {}).get("expected", "?"))
+    else:
+        text = _TYPE_TEXT.get(kind, err["msg"])
+    return ConfigError(f"{key} = {value}: {text}".replace("\n", " "))
+
+
+# ----------------------------------------------------------------------------- loading
+def validate_config(data: Any, base_dir: str | Path | None = None) -> Config:
+    """Validate a nested mapping into a Config; ``base_dir`` resolves a relative mesh_file.
+
+    Empty sections (``geometry:`` with nothing under it) count as all defaults.
+    """
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"config top level = {_fmt(data)}: must be a mapping of sections")
+    data = {k: ({} if v is None else v) for k, v in data.items()}
+    context = {"base_dir": Path(base_dir) if base_dir is not None else Path.cwd()}
+    try:
+        return Config.model_validate(data, context=context)
+    except ValidationError as exc:
+        raise _from_validation_error(exc) from None
+
+
+def _apply_overrides(data: dict[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
+    """Set ``section.key=value`` items (value parsed as YAML) into a copy of ``data``."""
+    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
+    for item in overrides:
+        path, sep, raw = item.partition("=")
+        parts = path.strip().split(".")
+        if not sep or len(parts) != 2 or not all(p.isidentifier() for p in parts):
+            raise ConfigError(f"--set {item!r}: must be of the form section.key=value")
+        try:
+            value = yaml.safe_load(raw)
+        except yaml.YAMLError:
+            raise ConfigError(f"--set {item!r}: value is not valid YAML") from None
+        section, key = parts
+        if data.get(section) is None:
+            data[section] = {}
+        if not isinstance(data[section], dict):
+            raise ConfigError(f"{section} = {_fmt(data[section])}: must be a mapping of keys")
+        data[section][key] = value
+    return data
+
+
+def _read_yaml(path: Path) -> Any:
+    """The parsed YAML document at ``path``; every failure is one line."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"config file {path}: not found") from None
+    except IsADirectoryError:
+        raise ConfigError(f"config file {path}: is a directory, not a file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        why = exc.__class__.__name__
+        raise ConfigError(f"config file {path}: cannot be read ({why})") from None
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or "invalid YAML"
+        raise ConfigError(f"config file {path}: YAML syntax error{where}: {problem}") from None
+
+
+def load_config(path: str | Path | None, overrides: Sequence[str] = ()) -> Config:
+    """Read a YAML config (None: all defaults), apply ``--set section.key=value`` overrides,
+    validate, and return the frozen Config. Raises ConfigError (one line) on any problem."""
+    if path is None:
+        data, base = None, Path.cwd()
+    else:
+        path = Path(path)
+        data, base = _read_yaml(path), path.parent
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"config file {path}: top level must be a mapping of sections, "
+                          f"got {type(data).__name__}")
+    return validate_config(_apply_overrides(data, overrides), base_dir=base)
+
+
+def with_overrides(cfg: Config, overrides: Sequence[str]) -> Config:
+    """A new Config: ``cfg`` with ``section.key=value`` overrides applied and re-validated."""
+    return validate_config(_apply_overrides(config_to_dict(cfg), overrides))
+
+
+def config_to_dict(cfg: Config) -> dict[str, Any]:
+    """Plain nested dict of the config (YAML- and JSON-able; paths as strings)."""
+    return cfg.model_dump(mode="json")
+
+
+def save_config(cfg: Config, path: str | Path) -> Path:
+    """Write the resolved config as YAML (parents created); returns the path written."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = yaml.safe_dump(config_to_dict(cfg), sort_keys=False, default_flow_style=False)
+    path.write_text("# dpcollapse resolved configuration\n" + text, encoding="utf-8")
+    return path

@@ -1,0 +1,33 @@
+"""Coulomb friction on the bed and the left wall, regularized (seeds 000/001).
+
+With no penetration u·n = 0 imposed exactly, the tangential traction on a wall of
+friction coefficient μ is, in its Picard-linearized regularized form::
+
+    ∫_Γ μ [pᵏ − σ'_nn(uᵏ, pᵏ)]_+ / √(|u_Tᵏ|² + ε_f²) · u_T · v_T ds
+
+where u_T = u − (u·n) n and σ'_nn = n·σ'n is the normal deviatoric stress (bounded by
+κ + 2η|D| even when the regularized viscosity is huge).
+"""
+
+from __future__ import annotations
+
+import ufl
+
+from dpcollapse.rheology.drucker_prager import positive_part
+
+
+def tangential(u, n):
+    """u_T = u − (u·n) n."""
+    return u - ufl.dot(u, n) * n
+
+
+def normal_pressure(p, deviatoric_stress, n):
+    """[p − σ'_nn]_+: the compressive normal stress that friction acts on [Pa]."""
+    return positive_part(p - ufl.dot(n, ufl.dot(deviatoric_stress, n)))
+
+
+def coulomb_friction(mu, normal_stress, u_iter, eps_f, u, v, n, ds):
+    """∫ μ [p−σ'_nn]_+ u_T·v_T / √(|u_Tᵏ|²+ε_f²) ds on the measure ``ds``."""
+    ut_k = tangential(u_iter, n)
+    coefficient = mu * normal_stress / ufl.sqrt(ufl.inner(ut_k, ut_k) + eps_f**2)
+    return coefficient * ufl.inner(tangential(u, n), tangential(v, n)) * ds

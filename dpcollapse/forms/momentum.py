@@ -1,0 +1,55 @@
+"""UFL terms of the momentum and mass balance on the current (moving) domain Ω^{n+1}.
+
+One Picard iteration of seed 000 solves, for (u, p) = (u^{n+1,k+1}, p^{n+1,k+1}) and every
+test pair (v, q) in V × M::
+
+    ∫ ρ (u − uⁿ)/Δt · v                      "inertia"
+  + ∫ ρ ((uᵏ − w)·∇) u · v                    "convection"  (ALE: convected by u − w)
+  + ∫ (2η + κ(pᵏ)/√(|D(uᵏ)|²+ε²)) D(u):D(v)   "viscoplastic"
+  − ∫ p div v − ∫ q div u                     "pressure", "incompressibility"
+  + Coulomb friction on bed and wall            (forms.friction)
+  = ∫ ρ f · v                                  "gravity", f = g (sin θ, −cos θ)
+
+Each term is a pure function returning a UFL form so it can be assembled and tested alone.
+"""
+
+from __future__ import annotations
+
+import ufl
+
+from dpcollapse.rheology.drucker_prager import strain_rate
+
+
+def inertia(rho, dt, u, v):
+    """∫ ρ u/Δt · v dx: the implicit half of ∫ ρ (u − uⁿ)/Δt · v (bilinear)."""
+    return rho / dt * ufl.inner(u, v) * ufl.dx
+
+
+def previous_velocity(rho, dt, u_old, v):
+    """∫ ρ uⁿ/Δt · v dx: the explicit half of the time derivative (right-hand side)."""
+    return rho / dt * ufl.inner(u_old, v) * ufl.dx
+
+
+def convection(rho, u_iter, w, u, v):
+    """∫ ρ ((uᵏ − w)·∇) u · v dx, the ALE convective derivative linearized at uᵏ."""
+    return rho * ufl.inner(ufl.grad(u) * (u_iter - w), v) * ufl.dx
+
+
+def viscoplastic(secant_viscosity, u, v):
+    """∫ ν_eff D(u):D(v) dx with ν_eff = 2η + κ/√(|D(uᵏ)|²+ε²) frozen at the iterate."""
+    return secant_viscosity * ufl.inner(strain_rate(u), strain_rate(v)) * ufl.dx
+
+
+def pressure(p, v):
+    """−∫ p div v dx."""
+    return -p * ufl.div(v) * ufl.dx
+
+
+def incompressibility(q, u):
+    """−∫ q div u dx (sign chosen so the saddle-point matrix is symmetric)."""
+    return -q * ufl.div(u) * ufl.dx
+
+
+def gravity(rho, body_force, v):
+    """∫ ρ f · v dx."""
+    return rho * ufl.inner(body_force, v) * ufl.dx

@@ -1,0 +1,125 @@
+"""Triangulate a tagged boundary polygon with gmsh and hand the mesh to DOLFINx.
+
+Used for the initial trapezoid and for every remesh, so both share one code path. The
+gmsh model is built on rank 0 only; ``model_to_mesh`` distributes the mesh. Every
+polygon vertex becomes a gmsh point, so the meshed boundary contains the polygon exactly
+(gmsh may add nodes *on* long edges, which changes neither the area nor the shape).
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from mpi4py import MPI
+
+from dpcollapse import compat
+
+#: Physical facet tags shared by the whole project.
+BED, WALL, SURFACE = 1, 2, 3
+TAG_NAMES = {BED: "bed", WALL: "wall", SURFACE: "surface"}
+DOMAIN = 10
+
+
+@dataclass
+class TaggedMesh:
+    """A DOLFINx mesh with its boundary facets tagged BED, WALL or SURFACE."""
+
+    mesh: object
+    facet_tags: object
+
+
+@contextmanager
+def gmsh_session():
+    """Initialise gmsh quietly on this rank and finalise it afterwards."""
+    import gmsh
+
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setNumber("General.Verbosity", 0)
+    try:
+        yield gmsh
+    finally:
+        gmsh.finalize()
+
+
+def build_polygon_model(gmsh, points: np.ndarray, edge_tags: np.ndarray,
+                        size: Callable[[np.ndarray, int], float]) -> None:
+    """Add a plane surface bounded by ``points`` (CCW, edge i from point i to i+1).
+
+    ``size(point, tag)`` gives the target mesh size at a vertex given the tag of the
+    edge leaving it (the smaller of the two adjacent edges' sizes is used).
+    """
+    gmsh.model.add("domain")
+    occ = gmsh.model.geo
+    n = len(points)
+    tags = np.asarray(edge_tags)
+    pts = []
+    for i, (x, y) in enumerate(points):
+        h = min(size(points[i], int(tags[i])), size(points[i], int(tags[i - 1])))
+        pts.append(occ.addPoint(float(x), float(y), 0.0, h))
+    lines = [occ.addLine(pts[i], pts[(i + 1) % n]) for i in range(n)]
+    loop = occ.addCurveLoop(lines)
+    surface = occ.addPlaneSurface([loop])
+    occ.synchronize()
+    for tag in sorted(set(int(t) for t in tags)):
+        group = [lines[i] for i in range(n) if tags[i] == tag]
+        gmsh.model.addPhysicalGroup(1, group, tag)
+        gmsh.model.setPhysicalName(1, tag, TAG_NAMES.get(tag, str(tag)))
+    gmsh.model.addPhysicalGroup(2, [surface], DOMAIN)
+    gmsh.model.setPhysicalName(2, DOMAIN, "granular_mass")
+    gmsh.option.setNumber("Mesh.Algorithm", 6)  # Frontal-Delaunay: well-shaped triangles
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 1)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    gmsh.model.mesh.generate(2)
+
+
+def size_function(mesh_size: float, surface_mesh_size: float | None):
+    """Target size: ``surface_mesh_size`` on the free surface, ``mesh_size`` elsewhere."""
+    hs = surface_mesh_size or mesh_size
+
+    def size(point: np.ndarray, tag: int) -> float:
+        return hs if tag == SURFACE else mesh_size
+
+    return size
+
+
+def mesh_polygon(comm: MPI.Comm, points: np.ndarray | None, edge_tags: np.ndarray | None,
+                 mesh_size: float, surface_mesh_size: float | None = None) -> TaggedMesh:
+    """Mesh the polygon given on rank 0 (other ranks may pass None) over ``comm``."""
+    size = size_function(mesh_size, surface_mesh_size)
+    if comm.rank == 0:
+        with gmsh_session() as gmsh:
+            build_polygon_model(gmsh, np.asarray(points), np.asarray(edge_tags), size)
+            mesh, _, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
+    else:
+        mesh, _, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
+    mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
+    return TaggedMesh(mesh, facet_tags)
+
+
+def write_polygon_msh(path, points: np.ndarray, edge_tags: np.ndarray, mesh_size: float,
+                      surface_mesh_size: float | None = None) -> None:
+    """Write the gmsh mesh of a polygon to a ``.msh`` file (serial)."""
+    with gmsh_session() as gmsh:
+        build_polygon_model(gmsh, points, edge_tags, size_function(mesh_size, surface_mesh_size))
+        gmsh.write(str(path))
+
+
+def read_msh(comm: MPI.Comm, path) -> TaggedMesh:
+    """Read a gmsh ``.msh`` with physical facet groups BED=1, WALL=2, SURFACE=3.
+
+    (DOLFINx 0.5.2's ``gmshio.read_from_msh`` is broken — it returns an undefined name —
+    so the file is merged into our own gmsh session on rank 0.)
+    """
+    if comm.rank == 0:
+        with gmsh_session() as gmsh:
+            gmsh.merge(str(path))
+            mesh, _, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
+    else:
+        mesh, _, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
+    mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
+    return TaggedMesh(mesh, facet_tags)

@@ -1,0 +1,74 @@
+"""Hand-written checkpoints (this DOLFINx build has no ADIOS2).
+
+A checkpoint holds the whole current mesh (global node coordinates, cells, tagged boundary
+edges), the accepted state uⁿ (P2) and pⁿ (P1) cell by cell, and the time-loop counters.
+It is written by rank 0 to ``checkpoint.npz`` through a temporary file and a rename, so
+the file on disk is always a complete checkpoint. Because fields are stored cell by cell
+on the global mesh, a run may be resumed on a different number of MPI ranks.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from dpcollapse import compat
+from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.transfer import CellwiseField
+
+
+def _global_mesh(tagged: TaggedMesh):
+    """(x, cells, edges, edge_tags) of the distributed mesh, on rank 0 (None elsewhere)."""
+    mesh, ft = tagged.mesh, tagged.facet_tags
+    n = compat.num_owned_cells(mesh)
+    tri = mesh.geometry.x[:, :2][compat.geometry_dofmap(mesh)[:n]]
+    nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
+    edges = mesh.geometry.x[:, :2][nodes] if len(ft.indices) else np.zeros((0, 2, 2))
+    parts = mesh.comm.gather((tri, edges, np.asarray(ft.values)), root=0)
+    if mesh.comm.rank != 0:
+        return None
+    tri = np.concatenate([p[0] for p in parts])
+    edges = np.concatenate([p[1] for p in parts])
+    tags = np.concatenate([p[2] for p in parts])
+    x, inverse = np.unique(tri.reshape(-1, 2), axis=0, return_inverse=True)
+    cells = inverse.reshape(-1, 3).astype(np.int64)
+    lookup = {tuple(p): i for i, p in enumerate(x)}
+    edge_nodes = np.array([[lookup[tuple(a)], lookup[tuple(b)]] for a, b in edges], dtype=np.int64)
+    edge_nodes, first = np.unique(np.sort(edge_nodes, axis=1), axis=0, return_index=True)
+    return x, cells, edge_nodes.reshape(-1, 2), tags[first]
+
+
+def save_checkpoint(path: Path, tagged: TaggedMesh, u: CellwiseField, p: CellwiseField,
+                    state: dict) -> None:
+    """Write the checkpoint (collective; rank 0 writes)."""
+    mesh_data = _global_mesh(tagged)
+    if tagged.mesh.comm.rank != 0:
+        return
+    x, cells, edges, edge_tags = mesh_data
+    arrays = {"mesh_x": x, "mesh_cells": cells, "mesh_edges": edges, "mesh_edge_tags": edge_tags,
+              "state": np.array(json.dumps(state))}
+    arrays.update({f"u_{k}": v for k, v in u.to_arrays().items()})
+    arrays.update({f"p_{k}": v for k, v in p.to_arrays().items()})
+    path = Path(path)
+    tmp = path.with_name(path.stem + ".tmp.npz")
+    np.savez(tmp, **arrays)
+    os.replace(tmp, path)
+
+
+def load_checkpoint(path: Path, comm) -> tuple[TaggedMesh, CellwiseField, CellwiseField, dict]:
+    """Rebuild the mesh (distributed over ``comm``) and the fields from a checkpoint."""
+    data = np.load(path)
+    u = CellwiseField.from_arrays({k[2:]: data[k] for k in data.files if k.startswith("u_")})
+    p = CellwiseField.from_arrays({k[2:]: data[k] for k in data.files if k.startswith("p_")})
+    state = json.loads(str(data["state"]))
+    if comm.rank == 0:
+        x, cells = data["mesh_x"], data["mesh_cells"]
+        edges, edge_tags = data["mesh_edges"], data["mesh_edge_tags"]
+    else:
+        x, cells = np.zeros((0, 2)), np.zeros((0, 3), dtype=np.int64)
+        edges, edge_tags = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int32)
+    tagged = compat.mesh_with_facet_tags(comm, cells, x, edges, edge_tags)
+    return tagged, u, p, state

@@ -1,0 +1,69 @@
+"""``run.json``: versions, MPI size, the resolved config, timings and the outcome."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import time
+from pathlib import Path
+
+
+def versions() -> dict:
+    import dolfinx
+    import petsc4py
+    from petsc4py import PETSc
+
+    import dpcollapse
+
+    v = PETSc.Sys.getVersion()
+    return {
+        "dpcollapse": dpcollapse.__version__,
+        "dolfinx": dolfinx.__version__,
+        "petsc": ".".join(str(i) for i in v),
+        "petsc4py": petsc4py.__version__,
+        "python": platform.python_version(),
+    }
+
+
+def write_json_atomic(path: Path, data: dict) -> None:
+    """Write JSON to ``path`` via a temporary file and a rename (never half-written)."""
+    path = Path(path)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2, default=float) + "\n")
+    os.replace(tmp, path)
+
+
+class RunInfo:
+    """Collects what a run did and rewrites ``run.json`` atomically on rank 0."""
+
+    def __init__(self, path: Path, comm, config: dict):
+        self.path = Path(path)
+        self.rank = comm.rank
+        self.started = time.time()
+        self.data = {
+            "status": "running",
+            "versions": versions(),
+            "mpi_size": comm.size,
+            "host": platform.node(),
+            "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "config": config,
+            "timings": {},
+            "summary": {},
+        }
+        if self.path.exists():  # resumed: keep the history of earlier segments
+            try:
+                old = json.loads(self.path.read_text())
+                self.data["segments"] = old.get("segments", []) + [
+                    {k: old.get(k) for k in ("status", "started", "summary", "timings")}]
+            except (json.JSONDecodeError, OSError):
+                pass
+        self.write()
+
+    def update(self, **kwargs) -> None:
+        self.data.update(kwargs)
+
+    def write(self) -> None:
+        if self.rank == 0:
+            self.data["wall_time"] = time.time() - self.started
+            write_json_atomic(self.path, self.data)

@@ -1,0 +1,346 @@
+"""Time series output for a moving (ALE) and occasionally remeshed mesh.
+
+DOLFINx 0.5's ``XDMFFile`` holds one mesh per file and aborts when a function name is
+written twice at the same time, so a single growing XDMF file cannot follow a mesh whose
+coordinates move every step and whose cell count changes after a remesh. Instead:
+
+* every output step ``k`` is written by DOLFINx (collectively) into its own closed pair
+  ``fields/step_{k:06d}.xdmf`` / ``.h5`` under the run directory;
+* rank 0 then rewrites the master ``solution.xdmf``: one temporal collection whose
+  children are flattened copies of the per-step grids (geometry, topology and all point
+  and cell attributes in ONE ``Uniform`` grid with ``<Time Value="t"/>``), their
+  ``DataItem`` paths rewritten relative to the master (``fields/step_000012.h5:/Mesh/...``).
+
+The master is written to ``solution.xdmf.tmp`` and moved into place with ``os.replace``,
+and a step is added to it only after its H5 file is closed, so a run killed at any moment
+leaves a ``solution.xdmf`` that ParaView (``Xdmf3ReaderT``) opens, covering every
+completed step.
+
+What DOLFINx 0.5 writes for ``write_mesh`` + ``write_function`` (per-step file)::
+
+    <Domain>
+      <Grid Name="mesh" GridType="Uniform">  Topology + Geometry  (step.h5:/Mesh/mesh/...)
+      <Grid Name="velocity" GridType="Collection" CollectionType="Temporal">
+        <Grid Name="velocity" GridType="Uniform">
+          <xi:include xpointer="xpointer(/Xdmf/Domain/Grid[@GridType='Uniform'][1]
+                                 /*[self::Topology or self::Geometry])"/>
+          <Time Value="0.5"/>
+          <Attribute Name="velocity" Center="Node"> step.h5:/Function/velocity/0_5
+      ... one such collection per function (Center="Cell" for DG0)
+
+The flattening resolves the xpointer by taking Topology/Geometry from the mesh grid and
+gathers every ``Attribute`` of every function grid into the same grid. DOLFINx omits the
+``Precision`` of its float64/int64 data (readers then assume 4 bytes: ParaView showed
+float32-rounded values), so the master states ``NumberType``/``Precision`` read from the H5.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Sequence
+
+import h5py
+import ufl
+from mpi4py import MPI
+
+from dpcollapse import compat
+
+__all__ = ["XDMFTimeSeries", "check_output_function"]
+
+_XDMF_HEADER = '<?xml version="1.0"?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n'
+_STEP_RE = re.compile(r"^step_(\d{6,})$")
+_XI_NS = "http://www.w3.org/2001/XInclude"
+_NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
+
+# Element families DOLFINx 0.5 writes faithfully to XDMF (vertex values / cell values).
+_P1_FAMILIES = {"Lagrange", "P", "CG", "Q"}
+_DG0_FAMILIES = {"Discontinuous Lagrange", "DG", "DQ", "DP"}
+
+
+def check_output_function(fn) -> None:
+    """Raise ValueError unless ``fn`` lives on a P1 (vertex) or DG0 (cell) space.
+
+    Vector and tensor versions of those are accepted; mixed spaces, higher degrees and
+    DG1+ are refused (DOLFINx 0.5 would silently sample them at vertices).
+    """
+    element = fn.function_space.ufl_element()
+    if isinstance(element, ufl.MixedElement) and not isinstance(
+        element, (ufl.VectorElement, ufl.TensorElement)
+    ):
+        raise ValueError(
+            f"function {fn.name!r} lives on a mixed space ({element}); collapse it and "
+            "interpolate into a P1 or DG0 output space first"
+        )
+    family, degree = element.family(), element.degree()
+    if (family in _P1_FAMILIES and degree == 1) or (family in _DG0_FAMILIES and degree == 0):
+        return
+    raise ValueError(
+        f"function {fn.name!r} is on a {family} degree-{degree} space; XDMF output takes only "
+        "P1 (vertex) or DG0 (cell) functions: interpolate into an output space first"
+    )
+
+
+def _fsync_path(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+class XDMFTimeSeries:
+    """Moving-mesh time series: one closed XDMF/H5 pair per output step plus a master
+    temporal collection rewritten atomically after each step.
+
+    Parameters
+    ----------
+    directory
+        Run directory; receives ``{name}.xdmf`` and the step sub-directory.
+    comm
+        Communicator of the mesh; ``write`` and ``truncate_after`` are collective.
+    name
+        Master file stem. The per-step files go to ``fields/`` for the default name
+        ``"solution"`` and to ``fields_{name}/`` otherwise, so several series can share
+        a run directory.
+    durable
+        fsync each step's files and the master before publishing it (survives a machine
+        crash, not just a killed process). Cheap for output-sized files.
+
+    An existing master (resume) is read and continued, never clobbered. Step files that
+    the master does not reference and that are numbered after its last step (left by a
+    run killed between the step write and the master update) are removed.
+    """
+
+    def __init__(
+        self,
+        directory: Path,
+        comm: MPI.Comm,
+        name: str = "solution",
+        durable: bool = True,
+    ) -> None:
+        self.comm = comm
+        self.directory = Path(directory)
+        self.name = name
+        self.durable = durable
+        self.master = self.directory / f"{name}.xdmf"
+        self.fields_dir = self.directory / ("fields" if name == "solution" else f"fields_{name}")
+        # Rank 0 keeps the flattened grids; every rank keeps (index, time).
+        self._grids: list[ET.Element] = []
+        self._steps: list[tuple[int, float]] = []
+        self._next_index = 0
+
+        def setup():
+            self.fields_dir.mkdir(parents=True, exist_ok=True)
+            if self.master.exists():
+                self._grids = self._read_master(self.master)
+                self._steps = [self._grid_step(g) for g in self._grids]
+            stale = Path(f"{self.master}.tmp")
+            if stale.exists():
+                stale.unlink()
+            next_index = self._steps[-1][0] + 1 if self._steps else 0
+            self._remove_orphans(next_index)
+            return self._steps
+
+        self._steps = self._on_root(setup)
+        self._next_index = self._steps[-1][0] + 1 if self._steps else 0
+
+    # ------------------------------------------------------------------ public API
+    @property
+    def steps(self) -> list[tuple[int, float]]:
+        """(step index, time) of every step referenced by the master, in order."""
+        return list(self._steps)
+
+    def step_path(self, index: int) -> Path:
+        """The per-step XDMF file of step ``index``."""
+        return self.fields_dir / f"step_{index:06d}.xdmf"
+
+    def write(self, t: float, mesh, functions: Sequence) -> Path:
+        """Write ``mesh`` (current coordinates) and ``functions`` at time ``t`` as a new
+        step, then publish it in the master. Collective. Returns the step XDMF path."""
+        t = float(t)
+        functions = list(functions)
+        names = [fn.name for fn in functions]
+        duplicates = sorted({n for n in names if names.count(n) > 1})
+        if duplicates:
+            raise ValueError(f"output functions need unique names; repeated: {duplicates}")
+        for fn in functions:
+            check_output_function(fn)
+            if fn.function_space.mesh is not mesh:
+                raise ValueError(f"function {fn.name!r} is not defined on the mesh being written")
+        if self._steps and not t > self._steps[-1][1]:
+            raise ValueError(
+                f"output time {t!r} is not after the last written time {self._steps[-1][1]!r}; "
+                "call truncate_after() when restarting from an earlier checkpoint"
+            )
+
+        index = self._next_index
+        step_xdmf = self.step_path(index)
+        compat.write_xdmf_step(self.comm, str(step_xdmf), mesh, functions, t)
+        self.comm.Barrier()  # every rank's share of the H5 file is closed
+
+        def publish():
+            step_h5 = step_xdmf.with_suffix(".h5")
+            if self.durable:
+                _fsync_path(step_h5)
+                _fsync_path(step_xdmf)
+            self._grids.append(self._flatten_step(step_xdmf, index, t))
+            self._write_master()
+            return None
+
+        self._on_root(publish)
+        self._steps.append((index, t))
+        self._next_index = index + 1
+        return step_xdmf
+
+    def truncate_after(self, t: float) -> None:
+        """Drop the steps with time > t (with a 1e-12 relative tolerance, so a checkpoint
+        taken at an output time keeps that output) and delete their files; numbering
+        continues after the last kept step. Collective."""
+        t = float(t)
+        tol = 1e-12 * max(1.0, abs(t))
+        keep = [i for i, (_, ti) in enumerate(self._steps) if ti <= t + tol]
+
+        def truncate():
+            self._grids = [self._grids[i] for i in keep]
+            self._write_master()  # publish the shorter master before deleting files
+            next_index = self._steps[keep[-1]][0] + 1 if keep else 0
+            self._remove_orphans(next_index)
+            return None
+
+        self._on_root(truncate)
+        self._steps = [self._steps[i] for i in keep]
+        self._next_index = self._steps[-1][0] + 1 if self._steps else 0
+
+    # ------------------------------------------------------------------ internals
+    def _on_root(self, fn):
+        """Run ``fn`` on rank 0, broadcast its result (or its exception) to all ranks."""
+        result, error = None, None
+        if self.comm.rank == 0:
+            try:
+                result = fn()
+            except Exception as exc:  # re-raised on every rank below
+                error = exc
+        result, error = self.comm.bcast((result, error), root=0)
+        if error is not None:
+            raise error
+        return result
+
+    def _rel(self, path: Path) -> str:
+        return Path(os.path.relpath(path, self.master.parent)).as_posix()
+
+    def _flatten_step(self, step_xdmf: Path, index: int, t: float) -> ET.Element:
+        """One Uniform grid (geometry, topology, all attributes) from a DOLFINx 0.5 file."""
+        domain = ET.parse(step_xdmf).getroot().find("Domain")
+        if domain is None:
+            raise ValueError(f"{step_xdmf}: no <Domain>")
+        top_grids = domain.findall("Grid")
+        mesh_grids = [g for g in top_grids if g.get("GridType", "Uniform") == "Uniform"]
+        if not mesh_grids or mesh_grids[0].find("Topology") is None:
+            raise ValueError(f"{step_xdmf}: no Uniform mesh grid with a Topology")
+        mesh_grid = mesh_grids[0]
+
+        grid = ET.Element("Grid", {"Name": f"step_{index:06d}", "GridType": "Uniform"})
+        for tag in ("Topology", "Geometry"):
+            grid.append(copy.deepcopy(mesh_grid.find(tag)))
+        ET.SubElement(grid, "Time", {"Value": repr(t)})
+        seen: set[str] = set()
+        for attr in mesh_grid.iter("Attribute"):
+            seen.add(attr.get("Name"))
+            grid.append(copy.deepcopy(attr))
+        for g in top_grids:
+            if g is mesh_grid:
+                continue
+            for attr in g.iter("Attribute"):
+                if attr.get("Name") in seen:
+                    raise ValueError(f"{step_xdmf}: attribute {attr.get('Name')!r} twice")
+                seen.add(attr.get("Name"))
+                grid.append(copy.deepcopy(attr))
+        if any(el.tag == f"{{{_XI_NS}}}include" for el in grid.iter()):
+            raise ValueError(f"{step_xdmf}: unresolved xi:include in the flattened grid")
+
+        # Rewrite "step_000012.h5:/path" -> "fields/step_000012.h5:/path" (master-relative)
+        # and state the stored precision: DOLFINx 0.5 omits it, and XDMF readers then take
+        # float64 data as float32 and int64 as int32.
+        h5_files: dict[str, h5py.File] = {}
+        try:
+            for item in grid.iter("DataItem"):
+                if item.get("Format") != "HDF":
+                    continue
+                text = (item.text or "").strip()
+                fname, sep, h5path = text.partition(":")
+                if not sep:
+                    raise ValueError(f"{step_xdmf}: HDF DataItem without ':' ({text!r})")
+                h5_file = step_xdmf.parent / fname
+                if "Precision" not in item.attrib:
+                    if fname not in h5_files:
+                        h5_files[fname] = h5py.File(h5_file, "r")
+                    dtype = h5_files[fname][h5path].dtype
+                    number_type = _NUMBER_TYPES.get(dtype.kind)
+                    if number_type is not None:
+                        item.set("NumberType", number_type)
+                        item.set("Precision", str(dtype.itemsize))
+                item.text = f"{self._rel(h5_file)}:{h5path}"
+        finally:
+            for f in h5_files.values():
+                f.close()
+        return grid
+
+    @staticmethod
+    def _grid_step(grid: ET.Element) -> tuple[int, float]:
+        match = _STEP_RE.match(grid.get("Name", ""))
+        time = grid.find("Time")
+        if match is None or time is None:
+            raise ValueError(f"master grid {grid.get('Name')!r} is not a dpcollapse step")
+        return int(match.group(1)), float(time.get("Value"))
+
+    def _read_master(self, path: Path) -> list[ET.Element]:
+        root = ET.parse(path).getroot()
+        collection = root.find("Domain/Grid")
+        if collection is None or collection.get("CollectionType") != "Temporal":
+            raise ValueError(f"{path}: not a temporal collection written by XDMFTimeSeries")
+        return list(collection.findall("Grid"))
+
+    def _write_master(self) -> None:
+        if not self._grids:  # nothing published (truncated to before the first step)
+            if self.master.exists():
+                self.master.unlink()
+            return
+        root = ET.Element("Xdmf", {"Version": "3.0"})
+        domain = ET.SubElement(root, "Domain")
+        collection = ET.SubElement(
+            domain,
+            "Grid",
+            {"Name": self.name, "GridType": "Collection", "CollectionType": "Temporal"},
+        )
+        collection.extend(self._grids)
+        ET.indent(root, space="  ")
+        tmp = Path(f"{self.master}.tmp")
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(_XDMF_HEADER)
+            f.write(ET.tostring(root, encoding="unicode"))
+            f.write("\n")
+            f.flush()
+            if self.durable:
+                os.fsync(f.fileno())
+        os.replace(tmp, self.master)
+        if self.durable:
+            fd = os.open(self.master.parent, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+
+    def _remove_orphans(self, first_unused: int) -> None:
+        """Delete step files numbered >= first_unused (not referenced by the master)."""
+        referenced = {i for i, _ in (self._grid_step(g) for g in self._grids)}
+        for path in self.fields_dir.glob("step_*"):
+            match = _STEP_RE.match(path.name.split(".")[0])
+            if match is None or path.suffix not in (".xdmf", ".h5"):
+                continue
+            index = int(match.group(1))
+            if index >= first_unused and index not in referenced:
+                path.unlink()

@@ -1,0 +1,114 @@
+"""``dpcollapse plot RUN_DIR``: free-surface profiles and the front position (PNG).
+
+Reads only what a run writes for its users — ``solution.xdmf`` (and the HDF5 files it
+points to) and ``diagnostics.csv`` — so it plots any run, finished or not.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from dpcollapse.errors import ConfigError
+from dpcollapse.io.diagnostics import read_diagnostics
+
+#: Tolerance to tell bed (y = 0) and wall (x = 0) edges from the free surface [m].
+BOUNDARY_TOL = 1e-9
+
+
+def _dataset(run_dir: Path, text: str) -> np.ndarray:
+    filename, path = text.strip().split(":", 1)
+    with h5py.File(run_dir / filename, "r") as f:
+        return f[path][()]
+
+
+def read_series(run_dir: Path) -> list[tuple[float, np.ndarray, np.ndarray]]:
+    """(t, node coordinates, triangles) for every time in ``solution.xdmf``."""
+    root = ET.parse(run_dir / "solution.xdmf").getroot()
+    series = []
+    for grid in root.iter("Grid"):
+        time = grid.find("Time")
+        topo, geom = grid.find("Topology"), grid.find("Geometry")
+        if time is None or topo is None or geom is None:
+            continue
+        x = _dataset(run_dir, geom.find("DataItem").text)
+        cells = _dataset(run_dir, topo.find("DataItem").text)
+        series.append((float(time.get("Value")), x[:, :2], cells.astype(np.int64)))
+    return sorted(series, key=lambda s: s[0])
+
+
+def free_surface(x: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """Ordered points of the free surface (boundary edges not on the bed or the wall)."""
+    edges = np.sort(np.concatenate([cells[:, [0, 1]], cells[:, [1, 2]], cells[:, [2, 0]]]), axis=1)
+    unique, counts = np.unique(edges, axis=0, return_counts=True)
+    boundary = unique[counts == 1]
+    on_bed = np.all(np.abs(x[boundary, 1]) < BOUNDARY_TOL, axis=1)
+    on_wall = np.all(np.abs(x[boundary, 0]) < BOUNDARY_TOL, axis=1)
+    surf = boundary[~on_bed & ~on_wall]
+    if len(surf) == 0:
+        return np.zeros((0, 2))
+    # chain the edges, starting at the wall end (smallest x)
+    neighbours: dict[int, list[int]] = {}
+    for a, b in surf:
+        neighbours.setdefault(int(a), []).append(int(b))
+        neighbours.setdefault(int(b), []).append(int(a))
+    ends = [n for n, nb in neighbours.items() if len(nb) == 1]
+    start = min(ends or neighbours, key=lambda n: x[n, 0])
+    order, prev = [start], None
+    while True:
+        nxt = [n for n in neighbours[order[-1]] if n != prev]
+        if not nxt or nxt[0] == start:
+            break
+        prev = order[-1]
+        order.append(nxt[0])
+    return x[order]
+
+
+def plot_run(run_dir: Path, times: list[float] | None = None) -> Path:
+    """Draw profiles at ``times`` (default: six output times) and front vs time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    run_dir = Path(run_dir)
+    if not (run_dir / "solution.xdmf").exists():
+        raise ConfigError(f"RUN_DIR = {run_dir}: no solution.xdmf there (is it a run directory?)")
+    series = read_series(run_dir)
+    available = np.array([s[0] for s in series])
+    if times:
+        picks = sorted({int(np.argmin(np.abs(available - t))) for t in times})
+    else:
+        picks = sorted(set(np.linspace(0, len(series) - 1, min(6, len(series))).round().astype(int)))
+
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 8), gridspec_kw={"height_ratios": [3, 2]})
+    cmap = plt.get_cmap("viridis")
+    for j, i in enumerate(picks):
+        t, x, cells = series[i]
+        surf = free_surface(x, cells)
+        ax1.plot(surf[:, 0], surf[:, 1], color=cmap(j / max(len(picks) - 1, 1)), label=f"t = {t:.3f} s")
+    ax1.axhline(0.0, color="k", lw=1)
+    ax1.set_xlabel("x [m]")
+    ax1.set_ylabel("y [m]")
+    ax1.set_aspect("equal")
+    ax1.legend(fontsize=8)
+    ax1.set_title(f"Free surface — {run_dir.name}")
+
+    diag_path = run_dir / "diagnostics.csv"
+    if diag_path.exists():
+        d = read_diagnostics(diag_path)
+        if d:
+            ax2.plot(d["t"], d["front"], label="front position (furthest x of the mass)")
+            ax2.plot(d["t"], d["max_height"], label="maximum height")
+            ax2.set_xlabel("t [s]")
+            ax2.set_ylabel("[m]")
+            ax2.legend(fontsize=8)
+            ax2.grid(alpha=0.3)
+    fig.tight_layout()
+    out = run_dir / "collapse.png"
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out

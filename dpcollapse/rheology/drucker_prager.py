@@ -1,0 +1,61 @@
+"""Regularized Drucker–Prager viscoplastic law (seeds 000/001).
+
+Deviatoric stress, with the Frobenius norm |D| = √(D:D) (the project's convention)::
+
+    σ' = 2η D(u) + κ(p) D(u) / √(|D(u)|² + ε²),      κ(p) = √2 μ_s [p]_+
+
+In simple shear u = (γ̇ y, 0): D:D = γ̇²/2, so τ = σ'_xy = η γ̇ + μ_s [p]_+ γ̇ / √(γ̇² + 2ε²)
+→ μ_s p as ε → 0: the Coulomb criterion τ = μ_s p.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import ufl
+
+
+def positive_part(x):
+    """[x]_+ = max(x, 0) as UFL."""
+    return ufl.conditional(ufl.gt(x, 0), x, 0)
+
+
+def strain_rate(u):
+    """D(u) = (∇u + ∇uᵀ)/2."""
+    return ufl.sym(ufl.grad(u))
+
+
+def frobenius_norm_sq(tensor):
+    """|T|² = T:T."""
+    return ufl.inner(tensor, tensor)
+
+
+@dataclass(frozen=True)
+class DruckerPrager:
+    """σ' = 2η D + κ(p) D/√(|D|²+ε²), κ(p) = √2 μ_s [p]_+ (plus optional cohesion κ0).
+
+    viscosity: η [Pa s] ≥ 0; friction_coefficient: μ_s = tan(internal friction angle) > 0.
+    """
+
+    viscosity: float
+    friction_coefficient: float
+
+    def __post_init__(self):
+        if not (self.viscosity >= 0 and math.isfinite(self.viscosity)):
+            raise ValueError(f"viscosity must be >= 0, got {self.viscosity}")
+        if not (self.friction_coefficient > 0 and math.isfinite(self.friction_coefficient)):
+            raise ValueError(f"friction_coefficient must be > 0, got {self.friction_coefficient}")
+
+    def yield_stress(self, p):
+        """κ(p) = √2 μ_s [p]_+  [Pa]."""
+        return math.sqrt(2.0) * self.friction_coefficient * positive_part(p)
+
+    def secant_viscosity(self, u, p, epsilon):
+        """The coefficient of D(v) in the Picard linearization: 2η + κ(p)/√(|D(u)|²+ε²)."""
+        D = strain_rate(u)
+        return 2.0 * self.viscosity + self.yield_stress(p) / ufl.sqrt(frobenius_norm_sq(D) + epsilon**2)
+
+    def deviatoric_stress(self, u, p, epsilon):
+        """σ'(u, p) of the regularized law [Pa]."""
+        return self.secant_viscosity(u, p, epsilon) * strain_rate(u)

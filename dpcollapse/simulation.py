@@ -1,0 +1,376 @@
+"""The time loop of a collapse: ALE step, Picard solve, remesh, diagnostics, output.
+
+Each step n → n+1 (seed 000's update algorithm):
+1. if the mesh is too distorted (smallest angle below ``numerics.remesh_min_angle``),
+   remesh from the current boundary and carry uⁿ, pⁿ across;
+2. compute the mesh velocity wⁿ from uⁿ; limit Δt so that no cell loses more than half
+   its area and no free-surface node more than half its height above the bed;
+3. move the nodes by Δt·wⁿ, solve the Picard fixed point for (u^{n+1}, p^{n+1});
+   if it fails, undo the move and halve Δt down to ``time.dt_min``;
+4. record diagnostics; write XDMF/checkpoint every N steps; stop at rest or end time.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import signal
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
+
+from dpcollapse import compat
+from dpcollapse.ale.motion import MeshMotion, quality, retag_landed
+from dpcollapse.ale.remesh import load_state, remesh_domain, snapshot
+from dpcollapse.config import Config, config_to_dict, save_config
+from dpcollapse.errors import ConvergenceError, Interrupted, MeshError
+from dpcollapse.geometry.mesher import BED, TaggedMesh
+from dpcollapse.geometry.trapezoid import build_mesh
+from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
+from dpcollapse.io.diagnostics import DiagnosticsWriter
+from dpcollapse.io.runinfo import RunInfo
+from dpcollapse.io.xdmf import XDMFTimeSeries
+from dpcollapse.rheology.drucker_prager import DruckerPrager
+from dpcollapse.solvers.regularized import FlowParameters, PicardSettings, RegularizedFlow
+
+log = logging.getLogger("dpcollapse")
+
+#: Speed above which a point counts as flowing (seed 000) [m/s].
+FLOWING_SPEED = 1e-3
+#: Largest area change a remesh may make by dropping boundary vertices, relative.
+REMESH_AREA_TOLERANCE = 1e-6
+#: Steps between two remeshes triggered by the angle criterion alone.
+REMESH_COOLDOWN = 5
+
+
+def flow_parameters(cfg: Config) -> FlowParameters:
+    m, b = cfg.material, cfg.boundary
+    return FlowParameters(
+        density=m.density, gravity=m.gravity, bed_angle=math.radians(cfg.geometry.bed_angle),
+        rheology=DruckerPrager(m.viscosity, m.mu_s), mu_bed=b.mu_bed, mu_wall=b.mu_wall)
+
+
+def picard_settings(cfg: Config) -> PicardSettings:
+    n = cfg.numerics
+    return PicardSettings(n.epsilon, n.epsilon_friction, n.nonlinear_rtol, n.nonlinear_atol,
+                          n.max_iterations, n.linear_solver)
+
+
+class Discretization:
+    """Everything that lives on one mesh: the flow, the mesh motion, outputs, integrals."""
+
+    def __init__(self, tagged: TaggedMesh, cfg: Config):
+        self.tagged = tagged
+        self.mesh = mesh = tagged.mesh
+        self.comm = mesh.comm
+        self.flow = RegularizedFlow(tagged, flow_parameters(cfg), picard_settings(cfg))
+        self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
+                                 cfg.numerics.linear_solver) if cfg.numerics.ale else None
+        u, p = ufl.split(self.flow.solution)
+        self._area = fem.form(1.0 * ufl.dx(domain=mesh))
+        self._kinetic = fem.form(0.5 * cfg.material.density * ufl.inner(u, u) * ufl.dx)
+        # output functions on spaces XDMF writes faithfully (P1, DG0)
+        V1, S1, S0 = compat.vector_space(mesh, 1), compat.scalar_space(mesh, 1), compat.scalar_space(mesh, 0, "DG")
+        self.out_velocity = fem.Function(V1, name="velocity")
+        self.out_pressure = fem.Function(S1, name="pressure")
+        self.out_strain_rate = fem.Function(S0, name="strain_rate")
+        self.out_flowing = fem.Function(S1, name="flowing")
+        D = ufl.sym(ufl.grad(u))
+        self._strain_expr = compat.expression(ufl.sqrt(ufl.inner(D, D)), S0)
+
+    def area(self) -> float:
+        return self.comm.allreduce(fem.assemble_scalar(self._area), op=MPI.SUM)
+
+    def measures(self) -> dict:
+        """Front position (furthest x of the mass: the toe, or the nose of an overturning
+        front), maximum height, kinetic energy, area, max speed, mesh quality."""
+        x = self.mesh.geometry.x
+        front = x[:, 0].max() if len(x) else -np.inf
+        speed = np.linalg.norm(self.flow.u_old.x.array.reshape(-1, 2), axis=1)
+        out = {
+            "front": self.comm.allreduce(float(front), op=MPI.MAX),
+            "max_height": self.comm.allreduce(float(x[:, 1].max()), op=MPI.MAX),
+            "kinetic_energy": self.comm.allreduce(fem.assemble_scalar(self._kinetic), op=MPI.SUM),
+            "area": self.area(),
+            "max_speed": self.comm.allreduce(float(speed.max()) if len(speed) else 0.0, op=MPI.MAX),
+        }
+        out.update(quality(self.mesh))
+        return out
+
+    def output_functions(self) -> list:
+        sol = self.flow.solution
+        self.out_velocity.interpolate(sol.sub(0))
+        self.out_pressure.interpolate(sol.sub(1))
+        self.out_strain_rate.interpolate(self._strain_expr)
+        speed = np.linalg.norm(self.out_velocity.x.array.reshape(-1, 2), axis=1)
+        self.out_flowing.x.array[:] = (speed > FLOWING_SPEED).astype(float)
+        return [self.out_velocity, self.out_pressure, self.out_strain_rate, self.out_flowing]
+
+    def destroy(self) -> None:
+        self.flow.destroy()
+        if self.motion is not None:
+            self.motion.destroy()
+
+
+class Progress:
+    """A live bar when rank 0 writes to a terminal, else a log line every N steps."""
+
+    def __init__(self, comm, end_time: float, every: int, quiet: bool):
+        self.rank0 = comm.rank == 0
+        self.quiet = quiet
+        self.every = every
+        self.bar = None
+        if self.rank0 and not quiet and sys.stderr.isatty():
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=end_time, unit="s", bar_format="{l_bar}{bar}| {n:.3f}/{total:.2f} s {postfix}")
+
+    def update(self, step: int, t: float, dt: float, iterations: int, front: float) -> None:
+        if not self.rank0 or self.quiet:
+            return
+        if self.bar is not None:
+            self.bar.n = t
+            self.bar.set_postfix_str(f"step {step} dt {dt:.1e} it {iterations} front {front:.4f} m")
+        elif step % self.every == 0:
+            log.info("step %d  t = %.4f s  dt = %.2e s  iterations %d  front %.4f m", step, t, dt, iterations, front)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _raise_interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
+class Simulation:
+    """The run: owns the run directory, the time loop and its state."""
+
+    def __init__(self, cfg: Config, run_dir: Path, quiet: bool = False, resume: bool = False,
+                 comm: MPI.Comm = MPI.COMM_WORLD):
+        self.cfg, self.comm, self.quiet = cfg, comm, quiet
+        self.run_dir = Path(run_dir)
+        if comm.rank == 0:
+            self.run_dir.mkdir(parents=True, exist_ok=True)
+        comm.barrier()
+        self.checkpoint_path = self.run_dir / "checkpoint.npz"
+        resume = resume and self.checkpoint_path.exists()
+        if resume:
+            tagged, u, p, self.state = load_checkpoint(self.checkpoint_path, comm)
+            self.disc = Discretization(tagged, cfg)
+            load_state(self.disc.flow, u, p)
+            self.disc.flow.solution.x.array[:] = self.disc.flow.iterate.x.array
+            log.info("resuming from t = %.4f s (step %d)", self.state["t"], self.state["step"])
+        else:
+            self.disc = Discretization(build_mesh(cfg, comm), cfg)
+            self.state = {"t": 0.0, "step": 0, "dt_target": cfg.time.dt, "rest_time": 0.0,
+                          "remeshes": 0, "last_remesh_step": -10**9, "area0": self.disc.area(),
+                          "status": "running"}
+        if comm.rank == 0:
+            save_config(cfg, self.run_dir / "config.yaml")
+        self.xdmf = XDMFTimeSeries(self.run_dir, comm)
+        if resume:
+            self.xdmf.truncate_after(self.state["t"])
+        self.diagnostics = DiagnosticsWriter(self.run_dir / "diagnostics.csv", comm,
+                                             resume_after=self.state["t"] if resume else None)
+        self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg))
+        self.timings = {"solve": 0.0, "mesh_motion": 0.0, "remesh": 0.0, "output": 0.0}
+        self.iteration_counts: list[int] = []
+        self.wall0 = time.perf_counter()
+        if not resume:
+            self._output()
+
+    # ------------------------------------------------------------------ pieces
+    def _output(self) -> None:
+        if self.xdmf.steps and self.xdmf.steps[-1][1] >= self.state["t"]:
+            return  # already written at this time
+        t0 = time.perf_counter()
+        self.xdmf.write(self.state["t"], self.disc.mesh, self.disc.output_functions())
+        self.timings["output"] += time.perf_counter() - t0
+
+    def _checkpoint(self) -> None:
+        if self.state.get("checkpoint_step") == self.state["step"]:
+            return
+        self.state["checkpoint_step"] = self.state["step"]
+        t0 = time.perf_counter()
+        u, p = snapshot(self.disc.flow)
+        save_checkpoint(self.checkpoint_path, self.disc.tagged, u, p, self.state)
+        self.timings["output"] += time.perf_counter() - t0
+
+    def _remesh(self, reason: str) -> None:
+        t0 = time.perf_counter()
+        cfg, old = self.cfg, self.disc
+        area_before = old.area()
+        cells_before = self.comm.allreduce(compat.num_owned_cells(old.mesh), op=MPI.SUM)
+        u, p = snapshot(old.flow)
+        tagged, d_poly, nverts = remesh_domain(
+            old.tagged, cfg.geometry.mesh_size, cfg.geometry.surface_mesh_size,
+            REMESH_AREA_TOLERANCE * self.state["area0"])
+        old.destroy()
+        self.disc = Discretization(tagged, cfg)
+        outside = load_state(self.disc.flow, u, p)
+        area_after = self.disc.area()
+        cells_after = self.comm.allreduce(compat.num_owned_cells(tagged.mesh), op=MPI.SUM)
+        self.state["remeshes"] += 1
+        self.state["last_remesh_step"] = self.state["step"]
+        self.timings["remesh"] += time.perf_counter() - t0
+        log.info("remesh %d at t = %.4f s (%s): area %.8e -> %.8e m² (%+.2e rel), cells %d -> %d, "
+                 "%d boundary vertices, max extrapolation %.1e m", self.state["remeshes"],
+                 self.state["t"], reason, area_before, area_after,
+                 (area_after - area_before) / area_before, cells_before, cells_after, nverts, outside)
+
+    def _rebuild(self, tagged: TaggedMesh) -> None:
+        """A new discretization on the same mesh with new facet tags; same dofs, so the
+        state (uⁿ, iterate, mesh velocity) is copied as arrays. The old one is kept alive
+        for the caller to restore or destroy."""
+        old = self.disc
+        self.disc = Discretization(tagged, self.cfg)
+        new = self.disc.flow
+        for name in ("solution", "iterate", "u_old", "mesh_velocity"):
+            getattr(new, name).x.array[:] = getattr(old.flow, name).x.array
+
+    def _needs_remesh(self) -> str | None:
+        if self.disc.motion is None:
+            return None
+        q = quality(self.disc.mesh)
+        since = self.state["step"] - self.state["last_remesh_step"]
+        if q["min_angle"] < self.cfg.numerics.remesh_min_angle and since >= REMESH_COOLDOWN:
+            return f"min angle {q['min_angle']:.1f}°"
+        return None
+
+    def _step(self) -> tuple[float, int, float]:
+        """Advance one step; returns (dt, iterations, residual)."""
+        cfg, st = self.cfg, self.state
+        reason = self._needs_remesh()
+        if reason:
+            self._remesh(reason)
+        dt = min(st["dt_target"], cfg.time.end_time - st["t"])
+        motion = self.disc.motion
+        if motion is not None:
+            t0 = time.perf_counter()
+            motion.compute()
+            limit = motion.max_step()
+            self.timings["mesh_motion"] += time.perf_counter() - t0
+            if limit < cfg.time.dt_min:
+                if st["step"] - st["last_remesh_step"] > 0:
+                    self._remesh(f"step limit {limit:.1e} s below dt_min")
+                    return self._step()
+                raise MeshError(f"mesh degenerate at t = {st['t']:.4f} s: the largest step that "
+                                f"keeps every cell valid is {limit:.1e} s < time.dt_min, even after a remesh")
+            dt = min(dt, limit)
+        while True:
+            old_x, landed = motion.move(dt) if motion is not None else (None, 0)
+            before_landing = self.disc
+            if landed:
+                self._rebuild(retag_landed(self.disc.tagged))
+            t0 = time.perf_counter()
+            report = self.disc.flow.solve_step(dt)
+            self.timings["solve"] += time.perf_counter() - t0
+            if report.converged:
+                if landed:
+                    st["landings"] = st.get("landings", 0) + landed
+                    log.debug("t = %.4f s: %d nose node(s) landed on the bed", st["t"] + dt, landed)
+                    before_landing.destroy()
+                break
+            if old_x is not None:
+                self.disc.mesh.geometry.x[:] = old_x
+            if landed:
+                self.disc.destroy()
+                self.disc = before_landing
+                motion = self.disc.motion
+            self.disc.flow.reset_iterate()
+            if dt / 2 < cfg.time.dt_min:
+                raise ConvergenceError(
+                    f"the fixed point did not converge at t = {st['t']:.4f} s even with dt = "
+                    f"{dt:.1e} s (time.dt_min = {cfg.time.dt_min:g}): {report.message}, residual "
+                    f"{report.residual:.2e}; try a larger numerics.max_iterations or numerics.epsilon")
+            log.warning("t = %.4f s: no convergence with dt = %.2e s (%s, residual %.2e); halving dt",
+                        st["t"], dt, report.message, report.residual)
+            dt /= 2
+            if motion is not None:
+                motion.compute()
+        self.disc.flow.accept_step()
+        st["t"] += dt
+        st["step"] += 1
+        st["dt_target"] = min(cfg.time.dt, 2.0 * dt) if dt < st["dt_target"] else st["dt_target"]
+        if st["dt_target"] < cfg.time.dt:
+            st["dt_target"] = min(cfg.time.dt, 1.5 * st["dt_target"])
+        return dt, report.iterations, report.residual
+
+    # ------------------------------------------------------------------ loop
+    def run(self) -> dict:
+        cfg, st = self.cfg, self.state
+        progress = Progress(self.comm, cfg.time.end_time, cfg.time.output_every, self.quiet)
+        previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+        try:
+            while st["t"] < cfg.time.end_time - 1e-12:
+                dt, iterations, residual = self._step()
+                self.iteration_counts.append(iterations)
+                m = self.disc.measures()
+                row = {"step": st["step"], "t": st["t"], "dt": dt, "iterations": iterations,
+                       "residual": residual, "remeshes": st["remeshes"],
+                       "wall_time": time.perf_counter() - self.wall0, **m}
+                self.diagnostics.write(row)
+                progress.update(st["step"], st["t"], dt, iterations, m["front"])
+                st["rest_time"] = st["rest_time"] + dt if m["max_speed"] < cfg.time.rest_speed else 0.0
+                at_rest = st["rest_time"] >= cfg.time.rest_duration
+                if st["step"] % cfg.time.output_every == 0 or at_rest:
+                    self._output()
+                if st["step"] % cfg.time.checkpoint_every == 0 or at_rest:
+                    self._checkpoint()
+                if at_rest:
+                    st["status"] = "at_rest"
+                    break
+            else:
+                st["status"] = "end_time"
+                self._output()
+                self._checkpoint()
+        except KeyboardInterrupt:
+            self._finish("interrupted", progress)
+            raise Interrupted(f"stopped at t = {st['t']:.4f} s; the run directory is valid, "
+                              f"continue with --resume") from None
+        except (ConvergenceError, MeshError) as exc:
+            self._finish("failed", progress, error=str(exc))
+            raise
+        finally:
+            signal.signal(signal.SIGTERM, previous)
+        return self._finish(st["status"], progress)
+
+    def _finish(self, status: str, progress: Progress, error: str | None = None) -> dict:
+        progress.close()
+        self.diagnostics.close()
+        its = self.iteration_counts
+        m = self.disc.measures()
+        summary = {
+            "status": status, "t": self.state["t"], "steps": self.state["step"],
+            "remeshes": self.state["remeshes"], "front": m["front"], "max_height": m["max_height"],
+            "area": m["area"], "area_drift": (m["area"] - self.state["area0"]) / self.state["area0"],
+            "kinetic_energy": m["kinetic_energy"], "min_angle": m["min_angle"],
+            "min_detJ": m["min_detJ"],
+            "mean_iterations": float(np.mean(its)) if its else 0.0,
+            "max_iterations": int(np.max(its)) if its else 0,
+            "factorizations": None,
+        }
+        if error:
+            summary["error"] = error
+        self.timings["total"] = time.perf_counter() - self.wall0
+        self.info.update(status=status, summary=summary, timings=self.timings)
+        self.info.write()
+        return summary
+
+
+def run_simulation(cfg: Config, run_dir: Path, quiet: bool = False, resume: bool = False) -> dict:
+    """Run a scene to rest (or end time); returns the summary written to run.json."""
+    sim = Simulation(cfg, run_dir, quiet=quiet, resume=resume)
+    summary = sim.run()
+    if MPI.COMM_WORLD.rank == 0 and not quiet:
+        log.info("%s at t = %.4f s after %d steps: front %.4f m, max height %.4f m, area drift %+.2e, "
+                 "%d remeshes, %.1f s wall", summary["status"], summary["t"], summary["steps"],
+                 summary["front"], summary["max_height"], summary["area_drift"], summary["remeshes"],
+                 sim.timings["total"])
+    return summary

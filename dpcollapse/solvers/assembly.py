@@ -1,0 +1,37 @@
+"""Assembly of a linear system (A, b) from compiled forms with Dirichlet conditions."""
+
+from __future__ import annotations
+
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from petsc4py import PETSc
+
+
+class LinearSystem:
+    """A matrix and a right-hand side built once and reassembled in place."""
+
+    def __init__(self, a, L, bcs):
+        self.a = fem.form(a)
+        self.L = fem.form(L)
+        self.bcs = bcs
+        self.A = fem_petsc.create_matrix(self.a)
+        self.b = fem_petsc.create_vector(self.L)
+
+    def assemble_matrix(self) -> PETSc.Mat:
+        self.A.zeroEntries()
+        fem_petsc.assemble_matrix(self.A, self.a, bcs=self.bcs)
+        self.A.assemble()
+        return self.A
+
+    def assemble_vector(self) -> PETSc.Vec:
+        with self.b.localForm() as loc:
+            loc.set(0.0)
+        fem_petsc.assemble_vector(self.b, self.L)
+        fem_petsc.apply_lifting(self.b, [self.a], bcs=[self.bcs])
+        self.b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        fem_petsc.set_bc(self.b, self.bcs)
+        return self.b
+
+    def destroy(self) -> None:
+        self.A.destroy()
+        self.b.destroy()

@@ -1,0 +1,188 @@
+"""One time step of the regularized Drucker–Prager flow: the Picard fixed point of seed 000.
+
+Given uⁿ on the already moved mesh Ω^{n+1} (same dofs: uⁿ∘A⁻¹ for free) and the mesh
+velocity w, iterate k = 0, 1, …: assemble the linear Oseen/Stokes problem of
+``forms.momentum`` + ``forms.friction`` with coefficients frozen at (uᵏ, pᵏ), solve it by
+LU, and stop when ‖u^{k+1} − uᵏ‖ ≤ rtol ‖u^{k+1}‖ + atol (RMS over velocity dofs).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx import mesh as dmesh
+from mpi4py import MPI
+
+from dpcollapse import compat
+from dpcollapse.forms import friction, momentum
+from dpcollapse.geometry.mesher import BED, WALL, TaggedMesh
+from dpcollapse.rheology.drucker_prager import DruckerPrager
+from dpcollapse.solvers.assembly import LinearSystem
+from dpcollapse.solvers.linear import DirectSolver
+
+
+@dataclass(frozen=True)
+class FlowParameters:
+    """Physical parameters of a scene, SI units."""
+
+    density: float            # ρ [kg/m³]
+    gravity: float            # g [m/s²]
+    bed_angle: float          # θ [rad]
+    rheology: DruckerPrager
+    mu_bed: float             # μ_b
+    mu_wall: float            # μ_l
+
+    @property
+    def body_force(self) -> tuple[float, float]:
+        """f = g (sin θ, −cos θ) in slope coordinates."""
+        return (self.gravity * math.sin(self.bed_angle), -self.gravity * math.cos(self.bed_angle))
+
+
+@dataclass(frozen=True)
+class PicardSettings:
+    epsilon: float
+    epsilon_friction: float
+    rtol: float
+    atol: float
+    max_iterations: int
+    linear_solver: str = "mumps"
+
+
+@dataclass
+class StepReport:
+    converged: bool
+    iterations: int
+    residual: float        # last RMS velocity increment relative to RMS velocity (+atol)
+    message: str = ""
+
+
+class RegularizedFlow:
+    """Spaces, state, forms and solvers of the regularized flow on one mesh."""
+
+    def __init__(self, tagged: TaggedMesh, params: FlowParameters, settings: PicardSettings):
+        self.tagged = tagged
+        self.mesh = mesh = tagged.mesh
+        self.params = params
+        self.settings = settings
+        self.comm = mesh.comm
+
+        self.W = compat.taylor_hood_space(mesh)
+        self.V, vdofs = self.W.sub(0).collapse()
+        self.Q, pdofs = self.W.sub(1).collapse()
+        self.velocity_dofs = np.asarray(vdofs, dtype=np.int32)
+        self.pressure_dofs = np.asarray(pdofs, dtype=np.int32)
+        self.Vw = compat.vector_space(mesh, 1)
+
+        self.solution = fem.Function(self.W, name="solution")   # (u^{n+1,k+1}, p^{n+1,k+1})
+        self.iterate = fem.Function(self.W, name="iterate")     # (u^{n+1,k}, p^{n+1,k})
+        self.u_old = fem.Function(self.V, name="u_old")         # uⁿ
+        self.mesh_velocity = fem.Function(self.Vw, name="mesh_velocity")  # w
+
+        self.dt = fem.Constant(mesh, compat.ScalarType(1e-3))
+        self._build_forms()
+        self.solver = DirectSolver(self.comm, settings.linear_solver, prefix="dpc_flow_")
+        size_local = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
+        self._owned_velocity = self.velocity_dofs[self.velocity_dofs < size_local]
+        self._n_velocity = self.comm.allreduce(len(self._owned_velocity), op=MPI.SUM)
+
+    # ------------------------------------------------------------------ forms
+    def _build_forms(self) -> None:
+        mesh, p = self.mesh, self.params
+        (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
+        u_k, p_k = ufl.split(self.iterate)
+        rho = fem.Constant(mesh, compat.ScalarType(p.density))
+        f = fem.Constant(mesh, np.array(p.body_force, dtype=compat.ScalarType))
+        eps = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon))
+        eps_f = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon_friction))
+        ds = ufl.Measure("ds", domain=mesh, subdomain_data=self.tagged.facet_tags)
+        n = ufl.FacetNormal(mesh)
+
+        rheo = p.rheology
+        sigma_k = rheo.deviatoric_stress(u_k, p_k, eps)
+        self.terms = {
+            "inertia": momentum.inertia(rho, self.dt, u, v),
+            "convection": momentum.convection(rho, u_k, self.mesh_velocity, u, v),
+            "viscoplastic": momentum.viscoplastic(rheo.secant_viscosity(u_k, p_k, eps), u, v),
+            "pressure": momentum.pressure(pr, v),
+            "incompressibility": momentum.incompressibility(q, u),
+        }
+        normal_stress = friction.normal_pressure(p_k, sigma_k, n)
+        for name, mu, tag in (("bed_friction", p.mu_bed, BED), ("wall_friction", p.mu_wall, WALL)):
+            if mu > 0:
+                self.terms[name] = friction.coulomb_friction(mu, normal_stress, u_k, eps_f, u, v, n, ds(tag))
+        a = sum(self.terms.values())
+        L = momentum.gravity(rho, f, v) + momentum.previous_velocity(rho, self.dt, self.u_old, v)
+        self.system = LinearSystem(a, L, self._no_penetration())
+
+    def _no_penetration(self):
+        """u·n = 0 exactly: u_y = 0 on the bed (y = 0), u_x = 0 on the wall (x = 0)."""
+        fdim = self.mesh.topology.dim - 1
+        ft = self.tagged.facet_tags
+        bcs = []
+        for tag, comp in ((BED, 1), (WALL, 0)):
+            facets = ft.indices[ft.values == tag]
+            sub = self.W.sub(0).sub(comp)
+            Vc, _ = sub.collapse()
+            dofs = fem.locate_dofs_topological((sub, Vc), fdim, facets)
+            zero = fem.Function(Vc)
+            bcs.append(fem.dirichletbc(zero, dofs, sub))
+        return bcs
+
+    # ------------------------------------------------------------------ state access
+    def velocity(self, which: fem.Function | None = None):
+        return (which or self.solution).sub(0)
+
+    def velocity_values(self, which: fem.Function | None = None) -> np.ndarray:
+        """Owned velocity dof values (flat) of ``which`` (default: the solution)."""
+        return (which or self.solution).x.array[self._owned_velocity]
+
+    def rms(self, values: np.ndarray) -> float:
+        total = self.comm.allreduce(float(np.dot(values, values)), op=MPI.SUM)
+        return math.sqrt(total / max(self._n_velocity, 1))
+
+    def accept_step(self) -> None:
+        """uⁿ ← u^{n+1}: the solution becomes the old state and the first iterate."""
+        self.iterate.x.array[:] = self.solution.x.array
+        self.u_old.x.array[:] = self.solution.x.array[self.velocity_dofs]
+
+    def reset_iterate(self) -> None:
+        """Start the next step's fixed point from the last accepted state."""
+        self.solution.x.array[:] = self.iterate.x.array
+
+    # ------------------------------------------------------------------ the step
+    def solve_step(self, dt: float) -> StepReport:
+        """Picard iterations for one time step of size ``dt`` on the current mesh."""
+        s = self.settings
+        self.dt.value = dt
+        start = self.iterate.x.array.copy()
+        residual = math.inf
+        for k in range(1, s.max_iterations + 1):
+            A = self.system.assemble_matrix()
+            b = self.system.assemble_vector()
+            self.solver.set_operator(A)
+            try:
+                self.solver.solve(b, compat.petsc_vec(self.solution))
+            except RuntimeError as exc:
+                self.iterate.x.array[:] = start
+                return StepReport(False, k, math.nan, str(exc))
+            self.solution.x.scatter_forward()
+            new = self.velocity_values()
+            if not np.all(np.isfinite(new)):
+                self.iterate.x.array[:] = start
+                return StepReport(False, k, math.nan, "non-finite velocity")
+            change = self.rms(new - self.velocity_values(self.iterate))
+            scale = self.rms(new)
+            residual = change / (s.rtol * scale + s.atol) * s.rtol
+            self.iterate.x.array[:] = self.solution.x.array
+            if change <= s.rtol * scale + s.atol:
+                return StepReport(True, k, residual)
+        self.iterate.x.array[:] = start
+        return StepReport(False, s.max_iterations, residual, "iteration cap reached")
+
+    def destroy(self) -> None:
+        self.system.destroy()
+        self.solver.destroy()

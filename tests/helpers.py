@@ -1,0 +1,63 @@
+"""Helpers shared by the tests."""
+
+import json
+import os
+import tempfile
+
+import pytest
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PV_SCRIPT = ROOT / "tests" / "pv_read_xdmf.py"
+PV_MARK = "PV_SUMMARY_JSON:"
+
+
+def clean_env():
+    """The environment without the MPI launcher's variables: pvpython (built with MPI)
+    must start as its own singleton, not join the mpirun job of the test."""
+    prefixes = ("OMPI_", "PMIX_", "PMI_", "OPAL_", "ORTE_", "HYDRA_", "I_MPI_")
+    env = {k: v for k, v in os.environ.items() if not k.startswith(prefixes)}
+    env.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
+    env.setdefault("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+    return env
+
+
+def paraview_summaries(*masters):
+    """One pvpython start-up reading every master; the JSON summaries in order."""
+    pvpython = shutil.which("pvpython")
+    if pvpython is None:
+        pytest.skip("pvpython (ParaView) is not on PATH; scripts/setup.sh installs it")
+    proc = subprocess.run(
+        [pvpython, str(PV_SCRIPT), *map(str, masters)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=clean_env(),
+        cwd=tempfile.gettempdir(),  # relative paths must resolve from the master, not cwd
+    )
+    lines = [ln[len(PV_MARK):] for ln in proc.stdout.splitlines() if ln.startswith(PV_MARK)]
+    assert len(lines) == len(masters), (
+        f"pvpython exit {proc.returncode}\nstdout:\n{proc.stdout[-3000:]}\n"
+        f"stderr:\n{proc.stderr[-3000:]}"
+    )
+    summaries = [json.loads(ln) for ln in lines]
+    for s in summaries:
+        assert "error" not in s, f"{s}\nstderr:\n{proc.stderr[-3000:]}"
+    return summaries
+
+
+def dpcollapse_cmd() -> list[str]:
+    exe = Path(sys.executable).parent / "dpcollapse"
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "dpcollapse.cli"]
+
+
+def run_cli(*args, timeout=600, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run(dpcollapse_cmd() + [str(a) for a in args], capture_output=True, text=True,
+                          timeout=timeout, env=clean_env(), cwd=ROOT, **kw)
+
+
+def pvpython() -> str | None:
+    return shutil.which("pvpython")

@@ -1,0 +1,212 @@
+"""dpcollapse.config: defaults, the shipped configs, one-line errors, overrides, round trip."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import yaml
+from pydantic import ValidationError
+
+from dpcollapse.config import (
+    Config,
+    config_to_dict,
+    load_config,
+    save_config,
+    validate_config,
+    with_overrides,
+)
+from dpcollapse.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parents[1]
+RIGID = ROOT / "configs" / "rigid.yaml"
+STABLE = ROOT / "configs" / "stable.yaml"
+
+
+def _error(tmp_path: Path, text: str | None = None, overrides=()) -> str:
+    """The one-line ConfigError message for a config file with ``text`` (None: no file)."""
+    path = None
+    if text is not None:
+        path = tmp_path / "bad.yaml"
+        path.write_text(text)
+    with pytest.raises(ConfigError) as info:
+        load_config(path, overrides)
+    msg = str(info.value)
+    assert msg and "\n" not in msg, msg
+    assert "Traceback" not in msg
+    return msg
+
+
+def test_defaults_load():
+    cfg = load_config(None)
+    assert isinstance(cfg, Config)
+    assert cfg.geometry.height == 0.25 and cfg.material.density == 1550.0
+    assert cfg.numerics.linear_solver == "mumps" and cfg.numerics.ale is True
+    assert cfg.time.output_every == 20 and cfg.output.directory == Path("runs/rigid")
+    assert cfg.geometry.surface_mesh_size is None and cfg.geometry.mesh_file is None
+
+
+def test_defaults_live_in_the_fields_with_units():
+    for section in Config.model_fields.values():
+        for name, field in section.annotation.model_fields.items():
+            assert field.description, name
+
+
+def test_frozen():
+    cfg = load_config(None)
+    with pytest.raises(ValidationError):
+        cfg.material.density = 1.0  # type: ignore[misc]
+
+
+def test_rigid_yaml():
+    cfg = load_config(RIGID)
+    assert round(cfg.material.mu_s, 4) == 0.4770
+    assert cfg.material.mu_s == pytest.approx(math.tan(math.radians(25.5)))
+    assert cfg.boundary.mu_bed == pytest.approx(math.tan(math.radians(25.5)))
+    assert cfg.boundary.mu_wall == pytest.approx(math.tan(math.radians(10.2)))
+    assert cfg.geometry.top_length == pytest.approx(0.297 - 0.25 / math.tan(math.radians(70)))
+    assert cfg.geometry.area == pytest.approx(0.0628, abs=1e-4)
+    assert cfg.time.max_steps == 2000
+    assert cfg.gravity_vector == pytest.approx((0.0, -9.81))
+    assert cfg == load_config(None)  # the file spells out the defaults
+
+
+def test_stable_yaml():
+    cfg = load_config(STABLE)
+    assert cfg.geometry.flank_angle == 20.0 < cfg.material.friction_angle
+    assert cfg.time.end_time == 0.1 and cfg.geometry.top_length > cfg.geometry.mesh_size
+
+
+def test_gravity_on_a_slope():
+    cfg = load_config(None, ["geometry.bed_angle=30"])
+    assert cfg.gravity_vector == pytest.approx((9.81 * 0.5, -9.81 * math.cos(math.radians(30))))
+
+
+@pytest.mark.parametrize(
+    "text, expected",
+    [
+        ("material:\n  densty: 1500\n", "material.densty: unknown key; did you mean 'density'?"),
+        ("materal:\n  density: 1500\n", "materal: unknown section; did you mean 'material'?"),
+        ("time:\n  dt: abc\n", "time.dt = 'abc': must be a number"),
+        ("time:\n  dt: true\n", "time.dt = true: must be a number"),
+        ("time:\n  output_every: 2.5\n", "time.output_every = 2.5: must be an integer"),
+        ("numerics:\n  ale: 3\n", "numerics.ale = 3: must be true or false"),
+        ("numerics:\n  linear_solver: lu\n", "numerics.linear_solver = 'lu': must be one of"),
+        ("material:\n  density: -3.0\n", "material.density = -3.0: must be > 0 (kg/m^3)"),
+        ("material:\n  density: 0\n", "material.density = 0: must be > 0 (kg/m^3)"),
+        ("geometry:\n  flank_angle: 95.0\n",
+         "geometry.flank_angle = 95.0: must be in (0, 90] degrees"),
+        ("material:\n  friction_angle: 0\n",
+         "material.friction_angle = 0: must be in (0, 90) degrees"),
+        ("boundary:\n  bed_friction_angle: 90\n",
+         "boundary.bed_friction_angle = 90: must be in [0, 90) degrees"),
+        ("numerics:\n  epsilon: 0.0\n", "numerics.epsilon = 0.0: must be > 0 (1/s)"),
+        ("numerics:\n  epsilon: -1.0e-6\n", "numerics.epsilon = -1e-06: must be > 0 (1/s)"),
+        ("time:\n  dt: 0\n", "time.dt = 0: must be > 0 (s)"),
+        ("time:\n  dt: .inf\n", "time.dt = inf: must be a finite number"),
+        ("time:\n  dt: 1.0e-3\n  dt_min: 1.0e-2\n",
+         "time.dt_min = 0.01: must be <= time.dt = 0.001 (s)"),
+        ("geometry:\n  mesh_size: 0.5\n",
+         "geometry.mesh_size = 0.5: larger than the mass "
+         "(must be < 0.206 m = min(height, top length))"),
+        ("geometry:\n  flank_angle: 20\n",
+         "geometry.flank_angle = 20.0: the flank crosses the wall"),
+        ("geometry:\n  mesh_file: meshes/nope.msh\n",
+         "geometry.mesh_file = meshes/nope.msh: file not found"),
+        ("geometry: 5\n", "geometry = 5: must be a mapping of keys"),
+        ("- a\n- b\n", "top level must be a mapping"),
+        ("time:\n  dt: [1\n", "YAML syntax error at line"),
+    ],
+)
+def test_bad_input_one_line(tmp_path, text, expected):
+    msg = _error(tmp_path, text)
+    assert expected in msg
+
+
+def test_missing_config_file(tmp_path):
+    with pytest.raises(ConfigError, match=r"^config file .*nope\.yaml: not found$"):
+        load_config(tmp_path / "nope.yaml")
+
+
+def test_config_file_is_a_directory(tmp_path):
+    with pytest.raises(ConfigError, match="is a directory"):
+        load_config(tmp_path)
+
+
+def test_empty_file_and_empty_section_mean_defaults(tmp_path):
+    path = tmp_path / "empty.yaml"
+    path.write_text("")
+    assert load_config(path) == load_config(None)
+    path.write_text("geometry:\n")
+    assert load_config(path) == load_config(None)
+
+
+@pytest.mark.parametrize("item", ["material.density", "density=3", "a.b.c=1", "=3", ".x=1"])
+def test_malformed_set(item):
+    with pytest.raises(ConfigError, match=r"^--set .*must be of the form section\.key=value$"):
+        load_config(None, [item])
+
+
+def test_overrides_change_values():
+    cfg = load_config(RIGID, ["time.end_time=0.5", "numerics.ale=false",
+                              "geometry.surface_mesh_size=0.005", "time.dt=1e-4",
+                              "numerics.linear_solver=superlu_dist"])
+    assert cfg.time.end_time == 0.5 and cfg.numerics.ale is False
+    assert cfg.geometry.surface_mesh_size == 0.005 and cfg.time.dt == 1e-4
+    assert cfg.numerics.linear_solver == "superlu_dist"
+    assert load_config(None, ["geometry.surface_mesh_size=null"]).geometry.surface_mesh_size is None
+
+
+@pytest.mark.parametrize(
+    "item, expected",
+    [
+        ("material.density=-1", "material.density = -1: must be > 0 (kg/m^3)"),
+        ("material.densty=1", "did you mean 'density'?"),
+        ("tme.dt=1", "tme: unknown section; did you mean 'time'?"),
+        ("time.dt=abc", "time.dt = 'abc': must be a number"),
+        ("time.dt=[", "value is not valid YAML"),
+    ],
+)
+def test_overrides_are_validated(item, expected):
+    with pytest.raises(ConfigError) as info:
+        load_config(RIGID, [item])
+    assert expected in str(info.value) and "\n" not in str(info.value)
+
+
+def test_mesh_file_relative_to_config_folder(tmp_path, monkeypatch):
+    (tmp_path / "meshes").mkdir()
+    msh = tmp_path / "meshes" / "m.msh"
+    msh.write_text("$MeshFormat\n")
+    cfg_path = tmp_path / "sub" / "c.yaml"
+    cfg_path.parent.mkdir()
+    cfg_path.write_text("geometry:\n  mesh_file: ../meshes/m.msh\n")
+    monkeypatch.chdir(ROOT)
+    assert load_config(cfg_path).geometry.mesh_file == msh.resolve()
+
+
+def test_save_load_round_trip(tmp_path):
+    cfg = load_config(RIGID, ["time.end_time=0.3", "geometry.surface_mesh_size=0.004",
+                              "numerics.ale=false"])
+    out = save_config(cfg, tmp_path / "run" / "config.yaml")
+    assert load_config(out) == cfg
+    data = config_to_dict(cfg)
+    assert yaml.safe_load(yaml.safe_dump(data)) == data
+    assert data["output"]["directory"] == "runs/rigid"
+    assert validate_config(data) == cfg
+
+
+def test_round_trip_keeps_mesh_file(tmp_path):
+    msh = tmp_path / "m.msh"
+    msh.write_text("$MeshFormat\n")
+    cfg = load_config(None, [f"geometry.mesh_file={msh}"])
+    other = tmp_path / "elsewhere"
+    assert load_config(save_config(cfg, other / "c.yaml")) == cfg
+
+
+def test_with_overrides():
+    cfg = load_config(RIGID)
+    new = with_overrides(cfg, ["time.dt=2e-3"])
+    assert new.time.dt == 2e-3 and cfg.time.dt == 1e-3
+    with pytest.raises(ConfigError, match="time.dt = 0: must be > 0"):
+        with_overrides(cfg, ["time.dt=0"])
