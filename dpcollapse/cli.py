@@ -177,6 +177,28 @@ def plot(run_dir: Path, times: tuple[str, ...]) -> int:
     return 0
 
 
+@cli.group()
+def validate() -> None:
+    """Validation cases against reference solutions (tables + PNG)."""
+
+
+@validate.command("plug")
+@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path),
+              default=Path("configs/plug.yaml"), show_default=True, help="Base config of the case.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("runs/validate_plug"), show_default=True, help="Output directory.")
+@click.option("--quick", is_flag=True, help="Coarse sweeps that finish in about a minute.")
+def validate_plug(config: Path, out: Path, quick: bool) -> int:
+    """Decelerating plug flow on a periodic inclined plane vs the 1D solution (seed 000 a)."""
+    if not config.is_file():
+        raise ConfigError(f"--config = {config}: file not found")
+    run = _lazy("dpcollapse.validation.plug", "validate_plug")
+    run(config, out, quick=quick, log=lambda msg: _rank() == 0 and click.echo(msg))
+    if _rank() == 0:
+        click.echo(f"wrote {out / 'plug.csv'} and {out / 'plug.png'}")
+    return 0
+
+
 def _error(message: str) -> None:
     """One line on stderr, from rank 0 only."""
     if _rank() == 0:

@@ -96,11 +96,15 @@ class _Section(BaseModel):
 
 # ----------------------------------------------------------------------------- sections
 class GeometryConfig(_Section):
-    """Initial trapezoidal mass against a left wall, on a bed inclined by ``bed_angle``."""
+    """The initial mass on a bed inclined by ``bed_angle``: a trapezoid against a left wall
+    (collapse, seed 000 case b) or a layer periodic in x (inclined plane, case a)."""
 
-    shape: Literal["trapezoid"] = _f("trapezoid", "", "Shape of the initial mass")
-    height: Number = _f(0.25, "m", "Initial height h0 of the mass", gt=0)
-    base_length: Number = _f(0.297, "m", "Base length l0, from the wall to the toe", gt=0)
+    shape: Literal["trapezoid", "layer"] = _f(
+        "trapezoid", "", "Shape of the initial mass: trapezoid against a wall, or a layer "
+        "periodic in x (height = thickness, base_length = period)")
+    height: Number = _f(0.25, "m", "Initial height h0 of the mass (layer: thickness h)", gt=0)
+    base_length: Number = _f(
+        0.297, "m", "Base length l0, from the wall to the toe (layer: period L)", gt=0)
     flank_angle: Number = _f(
         70.0, "deg", "Angle alpha0 at which the right flank rises back over the mass", gt=0, le=90
     )
@@ -124,7 +128,9 @@ class GeometryConfig(_Section):
 
     @property
     def area(self) -> float:
-        """Area of the trapezoid, (l0 + top_length)/2 * h0 [m^2]."""
+        """Area of the mass: trapezoid (l0 + top_length)/2 * h0, layer L * h [m^2]."""
+        if self.shape == "layer":
+            return self.base_length * self.height
         return 0.5 * (self.base_length + self.top_length) * self.height
 
     @field_validator("mesh_file", mode="after")
@@ -140,6 +146,15 @@ class GeometryConfig(_Section):
 
     @model_validator(mode="after")
     def _fits(self) -> GeometryConfig:
+        if self.shape == "layer":
+            limit = min(self.height, self.base_length)
+            for key in ("mesh_size", "surface_mesh_size"):
+                h = getattr(self, key)
+                if h is not None and h >= limit:
+                    raise ConfigError(
+                        f"geometry.{key} = {_fmt(h)}: larger than the layer "
+                        f"(must be < {limit:.3g} m = min(height, base_length))")
+            return self
         top = self.top_length
         if top <= 0:
             least = math.degrees(math.atan2(self.height, self.base_length))
@@ -175,8 +190,10 @@ class MaterialConfig(_Section):
 
 
 class BoundaryConfig(_Section):
-    """Coulomb friction on the bed and on the left wall."""
+    """The bed (Coulomb friction or no slip) and the left wall (Coulomb friction)."""
 
+    bed_condition: Literal["coulomb", "no_slip"] = _f(
+        "coulomb", "", "Bed: no penetration + Coulomb friction, or no slip (u = 0)")
     bed_friction_angle: Number = _f(25.5, "deg", "Bed friction angle; mu_b = tan", ge=0, lt=90)
     wall_friction_angle: Number = _f(
         10.2, "deg", "Left-wall friction angle; mu_l = tan", ge=0, lt=90
@@ -204,6 +221,9 @@ class NumericsConfig(_Section):
     )
     nonlinear_atol: Number = _f(1.0e-7, "m/s", "Fixed-point stop, absolute part", ge=0)
     max_iterations: Count = _f(100, "", "Most fixed-point iterations per time step", ge=1)
+    anderson_depth: Count = _f(
+        5, "", "Anderson acceleration of the fixed point: history length m (0 = plain Picard)",
+        ge=0, le=50)
     linear_solver: Literal["mumps", "superlu_dist"] = _f("mumps", "", "Direct LU solver")
     mesh_velocity_penalty: Number = _f(
         1.0e3, "", "Penalty xi-hat on (w-u).n on the free surface (dimensionless, applied as xi-hat/h)", gt=0
@@ -212,6 +232,14 @@ class NumericsConfig(_Section):
         12.0, "deg", "Remesh when the smallest cell angle falls below this", gt=0, lt=60
     )
     ale: bool = Field(True, strict=True, description="Move the mesh (false: fixed domain)")
+
+
+class InitialConfig(_Section):
+    """Initial velocity (the initial pressure comes from the first step's fixed point)."""
+
+    velocity: Literal["rest", "half_poiseuille"] = _f(
+        "rest", "", "rest, or u = (U_s (2y/h - y^2/h^2), 0) across the layer")
+    surface_speed: Number = _f(1.0, "m/s", "U_s of the half-Poiseuille profile", ge=0)
 
 
 class TimeConfig(_Section):
@@ -254,8 +282,16 @@ class Config(_Section):
     material: MaterialConfig = Field(default_factory=MaterialConfig, description="Material")
     boundary: BoundaryConfig = Field(default_factory=BoundaryConfig, description="Friction")
     numerics: NumericsConfig = Field(default_factory=NumericsConfig, description="Solvers")
+    initial: InitialConfig = Field(default_factory=InitialConfig, description="Initial state")
     time: TimeConfig = Field(default_factory=TimeConfig, description="Time stepping")
     output: OutputConfig = Field(default_factory=OutputConfig, description="Output")
+
+    @model_validator(mode="after")
+    def _scene(self) -> Config:
+        if self.geometry.shape == "layer" and self.numerics.ale:
+            raise ConfigError("numerics.ale = true: a periodic layer has a fixed domain; "
+                              "must be false with geometry.shape = layer")
+        return self
 
     @property
     def gravity_vector(self) -> tuple[float, float]:

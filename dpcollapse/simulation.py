@@ -52,13 +52,23 @@ def flow_parameters(cfg: Config) -> FlowParameters:
     m, b = cfg.material, cfg.boundary
     return FlowParameters(
         density=m.density, gravity=m.gravity, bed_angle=math.radians(cfg.geometry.bed_angle),
-        rheology=DruckerPrager(m.viscosity, m.mu_s), mu_bed=b.mu_bed, mu_wall=b.mu_wall)
+        rheology=DruckerPrager(m.viscosity, m.mu_s), mu_bed=b.mu_bed, mu_wall=b.mu_wall,
+        bed_no_slip=b.bed_condition == "no_slip")
+
+
+def initial_velocity(cfg: Config):
+    """The initial velocity u(x, y) as a callable for ``Function.interpolate``:
+    rest, or the half-Poiseuille profile U_s (2y/h − y²/h²) along the bed."""
+    h, us = cfg.geometry.height, cfg.initial.surface_speed
+    if cfg.initial.velocity == "half_poiseuille":
+        return lambda x: np.vstack([us * (2 * x[1] / h - (x[1] / h) ** 2), np.zeros(x.shape[1])])
+    return lambda x: np.zeros((2, x.shape[1]))
 
 
 def picard_settings(cfg: Config) -> PicardSettings:
     n = cfg.numerics
     return PicardSettings(n.epsilon, n.epsilon_friction, n.nonlinear_rtol, n.nonlinear_atol,
-                          n.max_iterations, n.linear_solver)
+                          n.max_iterations, n.linear_solver, n.anderson_depth)
 
 
 class Discretization:
@@ -168,6 +178,7 @@ class Simulation:
             log.info("resuming from t = %.4f s (step %d)", self.state["t"], self.state["step"])
         else:
             self.disc = Discretization(build_mesh(cfg, comm), cfg)
+            self.disc.flow.set_velocity(initial_velocity(cfg))
             self.state = {"t": 0.0, "step": 0, "dt_target": cfg.time.dt, "rest_time": 0.0,
                           "remeshes": 0, "last_remesh_step": -10**9, "area0": self.disc.area(),
                           "status": "running"}
@@ -181,6 +192,8 @@ class Simulation:
         self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg))
         self.timings = {"solve": 0.0, "mesh_motion": 0.0, "remesh": 0.0, "output": 0.0}
         self.iteration_counts: list[int] = []
+        self.ale_solves = 0
+        self.dt_limit = math.inf
         self.wall0 = time.perf_counter()
         if not resume:
             self._output()
@@ -251,11 +264,15 @@ class Simulation:
             self._remesh(reason)
         dt = min(st["dt_target"], cfg.time.end_time - st["t"])
         motion = self.disc.motion
+        self.dt_limit = math.inf
         if motion is not None:
             t0 = time.perf_counter()
             motion.compute()
-            limit = motion.max_step()
+            self.ale_solves += 1
+            limit = self.dt_limit = motion.max_step()
             self.timings["mesh_motion"] += time.perf_counter() - t0
+            if limit < dt:
+                log.debug("t = %.4f s: dt limited by the mesh motion to %.2e s", st["t"], limit)
             if limit < cfg.time.dt_min:
                 if st["step"] - st["last_remesh_step"] > 0:
                     self._remesh(f"step limit {limit:.1e} s below dt_min")
@@ -294,6 +311,7 @@ class Simulation:
             dt /= 2
             if motion is not None:
                 motion.compute()
+                self.ale_solves += 1
         self.disc.flow.accept_step()
         st["t"] += dt
         st["step"] += 1
@@ -303,7 +321,8 @@ class Simulation:
         return dt, report.iterations, report.residual
 
     # ------------------------------------------------------------------ loop
-    def run(self) -> dict:
+    def run(self, observers=()) -> dict:
+        """The time loop. Each ``observer(sim)`` is called after every accepted step."""
         cfg, st = self.cfg, self.state
         progress = Progress(self.comm, cfg.time.end_time, cfg.time.output_every, self.quiet)
         previous = signal.signal(signal.SIGTERM, _raise_interrupt)
@@ -312,13 +331,17 @@ class Simulation:
                 dt, iterations, residual = self._step()
                 self.iteration_counts.append(iterations)
                 m = self.disc.measures()
-                row = {"step": st["step"], "t": st["t"], "dt": dt, "iterations": iterations,
+                row = {"step": st["step"], "t": st["t"], "dt": dt, "dt_limit": self.dt_limit,
+                       "iterations": iterations,
                        "residual": residual, "remeshes": st["remeshes"],
                        "wall_time": time.perf_counter() - self.wall0, **m}
                 self.diagnostics.write(row)
+                for observe in observers:
+                    observe(self)
                 progress.update(st["step"], st["t"], dt, iterations, m["front"])
-                st["rest_time"] = st["rest_time"] + dt if m["max_speed"] < cfg.time.rest_speed else 0.0
-                at_rest = st["rest_time"] >= cfg.time.rest_duration
+                resting = m["max_speed"] < cfg.time.rest_speed
+                st["rest_time"] = st["rest_time"] + dt if resting else 0.0
+                at_rest = resting and st["rest_time"] >= cfg.time.rest_duration
                 if st["step"] % cfg.time.output_every == 0 or at_rest:
                     self._output()
                 if st["step"] % cfg.time.checkpoint_every == 0 or at_rest:
@@ -354,7 +377,8 @@ class Simulation:
             "min_detJ": m["min_detJ"],
             "mean_iterations": float(np.mean(its)) if its else 0.0,
             "max_iterations": int(np.max(its)) if its else 0,
-            "factorizations": None,
+            "flow_factorizations": int(np.sum(its)) if its else 0,
+            "mesh_velocity_factorizations": self.ale_solves,
         }
         if error:
             summary["error"] = error

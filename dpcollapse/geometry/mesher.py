@@ -18,8 +18,8 @@ from mpi4py import MPI
 from dpcollapse import compat
 
 #: Physical facet tags shared by the whole project.
-BED, WALL, SURFACE = 1, 2, 3
-TAG_NAMES = {BED: "bed", WALL: "wall", SURFACE: "surface"}
+BED, WALL, SURFACE, LEFT, RIGHT = 1, 2, 3, 4, 5
+TAG_NAMES = {BED: "bed", WALL: "wall", SURFACE: "surface", LEFT: "left", RIGHT: "right"}
 DOMAIN = 10
 
 

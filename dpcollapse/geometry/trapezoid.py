@@ -32,10 +32,15 @@ def _polygon(cfg):
 
 
 def build_mesh(cfg, comm: MPI.Comm = MPI.COMM_WORLD) -> TaggedMesh:
-    """The initial mesh: read ``geometry.mesh_file`` if given, else mesh the trapezoid."""
+    """The initial mesh of the scene: ``geometry.mesh_file`` if given, else the periodic
+    layer or the trapezoid."""
     g = cfg.geometry
     if g.mesh_file:
         return read_msh(comm, g.mesh_file)
+    if g.shape == "layer":
+        from dpcollapse.geometry.layer import layer_mesh
+
+        return layer_mesh(comm, g.base_length, g.height, g.mesh_size)
     points, tags = _polygon(cfg) if comm.rank == 0 else (None, None)
     return mesh_polygon(comm, points, tags, g.mesh_size, g.surface_mesh_size)
 

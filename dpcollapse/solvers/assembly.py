@@ -32,6 +32,12 @@ class LinearSystem:
         fem_petsc.set_bc(self.b, self.bcs)
         return self.b
 
+    def solve(self, solver, target, b: PETSc.Vec | None = None) -> None:
+        """Solve A x = b with ``solver`` (its operator already set) into Function ``target``
+        (b: the last assembled right-hand side by default)."""
+        solver.solve(self.b if b is None else b, target.vector)
+        target.x.scatter_forward()
+
     def destroy(self) -> None:
         self.A.destroy()
         self.b.destroy()

@@ -3,7 +3,9 @@
 Given uⁿ on the already moved mesh Ω^{n+1} (same dofs: uⁿ∘A⁻¹ for free) and the mesh
 velocity w, iterate k = 0, 1, …: assemble the linear Oseen/Stokes problem of
 ``forms.momentum`` + ``forms.friction`` with coefficients frozen at (uᵏ, pᵏ), solve it by
-LU, and stop when ‖u^{k+1} − uᵏ‖ ≤ rtol ‖u^{k+1}‖ + atol (RMS over velocity dofs).
+LU, and stop when the estimated error of the iterate, ‖u^{k+1} − uᵏ‖·max(1, ρ/(1 − ρ)) with ρ
+the observed contraction of successive increments, is ≤ rtol ‖u^{k+1}‖ + atol (RMS over
+velocity dofs). Optionally the iterates are Anderson-accelerated (``solvers.anderson``).
 """
 
 from __future__ import annotations
@@ -19,8 +21,9 @@ from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.forms import friction, momentum
-from dpcollapse.geometry.mesher import BED, WALL, TaggedMesh
+from dpcollapse.geometry.mesher import BED, RIGHT, WALL, TaggedMesh
 from dpcollapse.rheology.drucker_prager import DruckerPrager
+from dpcollapse.solvers.anderson import Anderson
 from dpcollapse.solvers.assembly import LinearSystem
 from dpcollapse.solvers.linear import DirectSolver
 
@@ -35,6 +38,7 @@ class FlowParameters:
     rheology: DruckerPrager
     mu_bed: float             # μ_b
     mu_wall: float            # μ_l
+    bed_no_slip: bool = False  # u = 0 on the bed instead of u·n = 0 + Coulomb friction
 
     @property
     def body_force(self) -> tuple[float, float]:
@@ -50,14 +54,19 @@ class PicardSettings:
     atol: float
     max_iterations: int
     linear_solver: str = "mumps"
+    anderson_depth: int = 0    # 0: plain Picard; m > 0: Anderson acceleration of depth m
 
 
 @dataclass
 class StepReport:
     converged: bool
     iterations: int
-    residual: float        # last RMS velocity increment relative to RMS velocity (+atol)
+    residual: float        # estimated error of the last iterate relative to the RMS velocity
     message: str = ""
+
+
+#: Largest contraction factor used in the error estimate of the fixed point.
+CONTRACTION_CAP = 0.99
 
 
 class RegularizedFlow:
@@ -88,6 +97,10 @@ class RegularizedFlow:
         size_local = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
         self._owned_velocity = self.velocity_dofs[self.velocity_dofs < size_local]
         self._n_velocity = self.comm.allreduce(len(self._owned_velocity), op=MPI.SUM)
+        self._size_local = size_local
+        weights = np.zeros(size_local)
+        weights[self._owned_velocity] = 1.0
+        self.anderson = Anderson(self.comm, settings.anderson_depth, size_local, weights)
 
     # ------------------------------------------------------------------ forms
     def _build_forms(self) -> None:
@@ -111,26 +124,48 @@ class RegularizedFlow:
             "incompressibility": momentum.incompressibility(q, u),
         }
         normal_stress = friction.normal_pressure(p_k, sigma_k, n)
-        for name, mu, tag in (("bed_friction", p.mu_bed, BED), ("wall_friction", p.mu_wall, WALL)):
-            if mu > 0:
+        walls = [("wall_friction", p.mu_wall, WALL)]
+        if not p.bed_no_slip:
+            walls.insert(0, ("bed_friction", p.mu_bed, BED))
+        for name, mu, tag in walls:
+            if mu > 0 and self._has_tag(tag):
                 self.terms[name] = friction.coulomb_friction(mu, normal_stress, u_k, eps_f, u, v, n, ds(tag))
         a = sum(self.terms.values())
         L = momentum.gravity(rho, f, v) + momentum.previous_velocity(rho, self.dt, self.u_old, v)
-        self.system = LinearSystem(a, L, self._no_penetration())
+        bcs = self._dirichlet_bcs()
+        if self._has_tag(RIGHT):
+            from dpcollapse.solvers.periodic import PeriodicLinearSystem
 
-    def _no_penetration(self):
-        """u·n = 0 exactly: u_y = 0 on the bed (y = 0), u_x = 0 on the wall (x = 0)."""
+            length = self.comm.allreduce(float(mesh.geometry.x[:, 0].max()), op=MPI.MAX)
+            self.system = PeriodicLinearSystem(a, L, bcs, self.W, self.tagged.facet_tags,
+                                               RIGHT, (-length, 0.0))
+        else:
+            self.system = LinearSystem(a, L, bcs)
+
+    def _has_tag(self, tag: int) -> bool:
+        local = bool(np.any(self.tagged.facet_tags.values == tag))
+        return self.comm.allreduce(local, op=MPI.LOR)
+
+    def _dirichlet_bcs(self):
+        """No penetration u·n = 0 exactly: u_y = 0 on the bed (y = 0), u_x = 0 on the wall
+        (x = 0); or no slip u = 0 on the bed."""
         fdim = self.mesh.topology.dim - 1
         ft = self.tagged.facet_tags
         bcs = []
-        for tag, comp in ((BED, 1), (WALL, 0)):
+        constrained = [(BED, None if self.params.bed_no_slip else 1), (WALL, 0)]
+        for tag, comp in constrained:
             facets = ft.indices[ft.values == tag]
-            sub = self.W.sub(0).sub(comp)
+            sub = self.W.sub(0) if comp is None else self.W.sub(0).sub(comp)
             Vc, _ = sub.collapse()
             dofs = fem.locate_dofs_topological((sub, Vc), fdim, facets)
-            zero = fem.Function(Vc)
-            bcs.append(fem.dirichletbc(zero, dofs, sub))
+            bcs.append(fem.dirichletbc(fem.Function(Vc), dofs, sub))
         return bcs
+
+    def set_velocity(self, profile) -> None:
+        """Set uⁿ and the first iterate to ``profile(x) -> (2, n)`` (initial condition)."""
+        self.u_old.interpolate(profile)
+        self.iterate.x.array[self.velocity_dofs] = self.u_old.x.array
+        self.solution.x.array[:] = self.iterate.x.array
 
     # ------------------------------------------------------------------ state access
     def velocity(self, which: fem.Function | None = None):
@@ -160,26 +195,37 @@ class RegularizedFlow:
         self.dt.value = dt
         start = self.iterate.x.array.copy()
         residual = math.inf
+        self.anderson.reset()
+        n = self._size_local
+        previous = 0.0
         for k in range(1, s.max_iterations + 1):
             A = self.system.assemble_matrix()
             b = self.system.assemble_vector()
             self.solver.set_operator(A)
             try:
-                self.solver.solve(b, compat.petsc_vec(self.solution))
+                self.system.solve(self.solver, target=self.solution, b=b)
             except RuntimeError as exc:
                 self.iterate.x.array[:] = start
                 return StepReport(False, k, math.nan, str(exc))
-            self.solution.x.scatter_forward()
             new = self.velocity_values()
             if not np.all(np.isfinite(new)):
                 self.iterate.x.array[:] = start
                 return StepReport(False, k, math.nan, "non-finite velocity")
             change = self.rms(new - self.velocity_values(self.iterate))
             scale = self.rms(new)
-            residual = change / (s.rtol * scale + s.atol) * s.rtol
-            self.iterate.x.array[:] = self.solution.x.array
-            if change <= s.rtol * scale + s.atol:
+            # error of the iterate, not just its increment: with contraction ρ the distance
+            # to the fixed point is about Δ ρ/(1 − ρ) (ρ from successive increments)
+            rho = min(change / previous, CONTRACTION_CAP) if previous > 0 else 0.0
+            error = change * max(1.0, rho / (1.0 - rho))
+            previous = change
+            residual = error / scale if scale > 0 else error
+            if error <= s.rtol * scale + s.atol:
+                self.iterate.x.array[:] = self.solution.x.array
                 return StepReport(True, k, residual)
+            # next iterate: the Picard image G(x_k), or its Anderson combination
+            self.iterate.x.array[:n] = self.anderson.update(self.iterate.x.array[:n],
+                                                            self.solution.x.array[:n])
+            self.iterate.x.scatter_forward()
         self.iterate.x.array[:] = start
         return StepReport(False, s.max_iterations, residual, "iteration cap reached")
 

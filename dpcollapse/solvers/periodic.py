@@ -1,0 +1,210 @@
+"""Assembly and solve of a linear system with a periodic (translation) constraint.
+
+``PeriodicLinearSystem`` is a sibling of ``solvers.assembly.LinearSystem`` for a space V
+(plain or mixed, e.g. Taylor–Hood) whose dofs on the facets tagged ``slave_tag`` are tied to
+the values at their images under a translation: u(x_s) = u(x_s + translation). It wraps
+dolfinx_mpc 0.5 (``MultiPointConstraint.create_periodic_constraint_topological``), whose
+reduced system lives on ``mpc.function_space``; ``solve`` back-substitutes the slave dofs and
+copies the result into a Function on the ORIGINAL space V, so every form whose coefficients
+live on V (or on its collapsed subspaces) keeps working unchanged.
+
+Usage (the caller owns the solver and hands it the operator, as with ``LinearSystem``)::
+
+    system = PeriodicLinearSystem(a, L, bcs, W, facet_tags, RIGHT, (-length, 0.0))
+    A = system.assemble_matrix()
+    b = system.assemble_vector()
+    solver.set_operator(A)
+    system.solve(solver, solution)          # solution: Function on W, ghosts updated
+
+Layout facts checked for dolfinx_mpc 0.5 (``create_extended_functionspace``): the MPC space
+shares V's dofmap list and owned range; its index map keeps V's ghosts in the same order
+and appends, in parallel only, the off-process master dofs as extra ghosts (in serial it
+is V's index map). Owned dofs therefore coincide; ``solve`` copies only the owned range and
+scatters V's ghosts forward, which is correct whatever the ghost layout.
+
+Corner dofs: the Dirichlet bcs are passed to the constraint, and dolfinx_mpc drops every
+candidate slave dof that a bc constrains (per scalar component, see ``leaf_subspaces``), so
+e.g. the bed/right-side corner under no-slip keeps its bc value instead of becoming a slave.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import dolfinx_mpc
+import numpy as np
+from dolfinx import cpp as _cpp
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from dpcollapse import compat
+
+
+def leaf_subspaces(V: fem.FunctionSpace) -> list[fem.FunctionSpace]:
+    """The scalar (sub)spaces of V, depth first: [V] for a scalar space, [V.sub(0), V.sub(1)]
+    for a 2D vector space, [W.sub(0).sub(0), W.sub(0).sub(1), W.sub(1)] for Taylor–Hood.
+
+    Constraining scalar leaves one by one is what dolfinx_mpc 0.5 supports (its periodic
+    constraint rejects value-size > 1 spaces) and lets a bc on a single velocity component
+    (e.g. u_y = 0 on the bed) exempt only that component from the constraint.
+    """
+    if V.num_sub_spaces == 0:
+        return [V]
+    leaves: list[fem.FunctionSpace] = []
+    for i in range(V.num_sub_spaces):
+        leaves.extend(leaf_subspaces(V.sub(i)))
+    return leaves
+
+
+class PeriodicLinearSystem:
+    """A matrix and right-hand side with a periodic constraint, reassembled in place."""
+
+    def __init__(self, a, L, bcs, V: fem.FunctionSpace, facet_tags, slave_tag: int,
+                 translation: Sequence[float], subspaces=None):
+        """Periodic u(x) = u(x + translation) for x on the facets tagged ``slave_tag``.
+
+        ``translation`` maps a slave point onto its master (image) point, e.g. (−L, 0) ties
+        the side x = L (slave) to x = 0 (master) of [0, L] × [0, h].
+        ``subspaces``: the (sub)spaces to constrain; default every scalar leaf of V
+        (``leaf_subspaces``), i.e. both velocity components and the pressure of a mixed
+        space. Non-scalar entries are expanded into their leaves.
+        ``bcs``: Dirichlet conditions on V (or its subspaces); they are applied in assembly
+        and their dofs are never made slaves (corners shared with a no-slip bed keep the bc).
+        """
+        self.a = fem.form(a)
+        self.L = fem.form(L)
+        self.bcs = list(bcs)
+        self.V = V
+        mesh = V.mesh
+        self.comm = mesh.comm
+        gdim = mesh.geometry.dim
+        shift = np.zeros(3)
+        shift[:len(translation)] = np.asarray(translation, dtype=np.float64)
+        if not np.any(shift):
+            raise ValueError("translation must be nonzero")
+        self.translation = shift
+        fdim = mesh.topology.dim - 1
+        slave_facets = facet_tags.indices[facet_tags.values == slave_tag].astype(np.int32)
+        self._check_images(slave_facets, fdim, gdim)
+
+        if subspaces is None:
+            leaves = leaf_subspaces(V)
+        else:
+            leaves = [leaf for S in subspaces for leaf in leaf_subspaces(S)]
+
+        def relation(x):
+            return x + shift[:, None]
+
+        mpc = dolfinx_mpc.MultiPointConstraint(V)
+        for S in leaves:
+            mpc.create_periodic_constraint_topological(S, facet_tags, slave_tag, relation, self.bcs)
+        mpc.finalize()
+        self.mpc = mpc
+        self._check_slave_count(leaves, slave_facets, fdim)
+
+        Vm = mpc.function_space
+        self.function_space = Vm
+        self.A = dolfinx_mpc.cpp.mpc.create_matrix(self.a, mpc._cpp_object)
+        self.b = _create_vector(Vm)
+        self.x = fem.Function(Vm)                   # reduced solution + back-substituted slaves
+        self._owned = V.dofmap.index_map.size_local * V.dofmap.index_map_bs
+        assert self._owned == Vm.dofmap.index_map.size_local * Vm.dofmap.index_map_bs
+
+    # ------------------------------------------------------------------ checks
+    def _check_images(self, facets, fdim, gdim) -> None:
+        """The images of the slave facets' vertices must lie in the mesh's bounding box
+        (a translation of the wrong sign would otherwise leave slaves silently unconstrained)."""
+        mesh = self.V.mesh
+        x = mesh.geometry.x[:, :gdim]
+        lo = np.full(gdim, np.inf)
+        hi = np.full(gdim, -np.inf)
+        if len(x):
+            lo[:], hi[:] = x.min(axis=0), x.max(axis=0)
+        self.comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)
+        self.comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
+        tol = 1e-8 * max(float(np.max(hi - lo)), 1.0)
+        mesh.topology.create_connectivity(fdim, 0)
+        f2v = mesh.topology.connectivity(fdim, 0)
+        verts = np.unique(np.concatenate([f2v.links(f) for f in facets])) if len(facets) else \
+            np.zeros(0, dtype=np.int32)
+        nodes = compat.entities_to_geometry(mesh, 0, verts).ravel() if len(verts) else \
+            np.zeros(0, dtype=np.int32)
+        images = mesh.geometry.x[nodes, :gdim] + self.translation[:gdim]
+        bad = int(np.sum(np.any((images < lo - tol) | (images > hi + tol), axis=1)))
+        bad = self.comm.allreduce(bad, op=MPI.SUM)
+        if bad:
+            raise ValueError(
+                f"{bad} slave vertices are mapped outside the mesh by translation "
+                f"{tuple(self.translation[:gdim])}: it must map the slave side onto the master "
+                "side (e.g. (-L, 0) for slave x = L, master x = 0)")
+
+    def _check_slave_count(self, leaves, facets, fdim) -> None:
+        """Every owned, non-Dirichlet dof on the slave facets must have become a slave."""
+        marked = np.zeros(self._size_with_ghosts(), dtype=bool)
+        for bc in self.bcs:
+            dofs, _ = bc.dof_indices()
+            marked[dofs] = True
+        owned = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
+        expected = 0
+        for S in leaves:
+            if S is self.V:
+                dofs = fem.locate_dofs_topological(S, fdim, facets)
+            else:
+                dofs = fem.locate_dofs_topological((S, S.collapse()[0]), fdim, facets)[0]
+            dofs = dofs[dofs < owned]
+            expected += int(np.count_nonzero(~marked[dofs]))
+        expected = self.comm.allreduce(expected, op=MPI.SUM)
+        got = self.comm.allreduce(int(self.mpc.num_local_slaves), op=MPI.SUM)
+        if got != expected:
+            raise RuntimeError(f"periodic constraint made {got} slave dofs, expected {expected}: "
+                               "some images of slave dofs were not found in the mesh")
+
+    def _size_with_ghosts(self) -> int:
+        im = self.V.dofmap.index_map
+        return (im.size_local + im.num_ghosts) * self.V.dofmap.index_map_bs
+
+    # ------------------------------------------------------------------ assembly
+    def assemble_matrix(self) -> PETSc.Mat:
+        """Reduced matrix: slave rows/cols folded onto their masters, 1 on the slave and
+        bc diagonals (dolfinx_mpc.assemble_matrix does zeroEntries and final assembly)."""
+        dolfinx_mpc.assemble_matrix(self.a, self.mpc, bcs=self.bcs, A=self.A)
+        return self.A
+
+    def assemble_vector(self) -> PETSc.Vec:
+        """Reduced right-hand side, lifted by the bcs, bc values set on owned bc dofs."""
+        dolfinx_mpc.assemble_vector(self.L, self.mpc, b=self.b)   # zeroes b (incl. ghosts)
+        dolfinx_mpc.apply_lifting(self.b, [self.a], [self.bcs], self.mpc)
+        self.b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        fem_petsc.set_bc(self.b, self.bcs)
+        return self.b
+
+    # ------------------------------------------------------------------ solve
+    def solve(self, solver, target: fem.Function, b: PETSc.Vec | None = None) -> None:
+        """Solve A x = b and write the periodic solution into ``target`` (a Function on V).
+
+        ``solver`` is any object with ``solve(b, x)`` whose operator the caller has already
+        set to ``assemble_matrix()``'s result (e.g. ``DirectSolver.set_operator(A)``);
+        ``b`` defaults to the vector of the last ``assemble_vector()``. The slave values are
+        recovered by back-substitution (x_s = Σ c_sm x_m) and ``target``'s ghosts updated.
+        """
+        if target.function_space is not self.V and target.x.array.size != self._size_with_ghosts():
+            raise ValueError("target must be a Function on the original space V")
+        x = compat.petsc_vec(self.x)
+        solver.solve(self.b if b is None else b, x)
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        self.mpc.homogenize(x)          # backsubstitution adds (+=) onto the slave entries
+        self.mpc.backsubstitution(x)    # slaves (owned and ghost) from masters, then scatter
+        n = self._owned
+        target.x.array[:n] = self.x.x.array[:n]
+        target.x.scatter_forward()
+
+    def destroy(self) -> None:
+        self.A.destroy()
+        self.b.destroy()
+
+
+def _create_vector(Vm: fem.FunctionSpace) -> PETSc.Vec:
+    """A ghosted PETSc vector on the MPC space's (extended) index map."""
+    return _cpp.la.petsc.create_vector(Vm.dofmap.index_map, Vm.dofmap.index_map_bs)

@@ -1,0 +1,1 @@
+"""Validation cases: the 2D solver against reference solutions."""
