@@ -20,7 +20,7 @@ from typing import Any, Sequence  # noqa: E402
 import click  # noqa: E402
 
 from dpcollapse.config import Config, load_config  # noqa: E402
-from dpcollapse.errors import DpcollapseError, Interrupted  # noqa: E402
+from dpcollapse.errors import ConfigError, DpcollapseError, Interrupted  # noqa: E402
 
 try:  # an editable install made before dpcollapse/__init__.py existed sees a namespace package
     from dpcollapse import __version__
@@ -55,9 +55,17 @@ def _setup_logging(quiet: bool = False) -> None:
     rank = _rank()
     level = logging.WARNING if quiet or rank != 0 else logging.INFO
     fmt = "%(asctime)s %(levelname)s %(name)s" + (f" [rank {rank}]" if rank else "")
-    # Third-party loggers (ffcx's JIT build lines, matplotlib) stay at WARNING.
+    # Third-party loggers (ffcx's JIT build lines, matplotlib) stay at WARNING. setuptools
+    # (which the JIT build runs) resets the root level to INFO, so filter on the handler.
     logging.basicConfig(level=logging.WARNING, format=fmt + ": %(message)s", force=True)
     logging.getLogger("dpcollapse").setLevel(level)
+    for handler in logging.getLogger().handlers:
+        handler.addFilter(_ours_or_warning)
+
+
+def _ours_or_warning(record: logging.LogRecord) -> bool:
+    """Pass dpcollapse's records at their level, everyone else's only from WARNING up."""
+    return record.name.startswith("dpcollapse") or record.levelno >= logging.WARNING
 
 
 def _lazy(module: str, name: str) -> Any:
@@ -108,16 +116,26 @@ def check(config: Path, overrides: tuple[str, ...]) -> int:
 
 def summary(cfg: Config, source: Path | str | None = None) -> str:
     """A few lines describing a valid config (derived numbers with units)."""
-    g, t = cfg.geometry, cfg.time
+    g, t, m = cfg.geometry, cfg.time, cfg.material
+    shape = (f"layer: thickness {g.height:g} m, period {g.base_length:g} m" if g.shape == "layer"
+             else f"mass: height {g.height:g} m, base {g.base_length:g} m, "
+                  f"top length {g.top_length:.4f} m, area {g.area:.4f} m^2")
     lines = [
         f"{source}: valid" if source else "config: valid",
-        f"  mu_s = {cfg.material.mu_s:.4f}  mu_b = {cfg.boundary.mu_bed:.4f}  "
+        f"  mu_s = {m.mu_s:.4f}  mu_b = {cfg.boundary.mu_bed:.4f}  "
         f"mu_l = {cfg.boundary.mu_wall:.4f}",
-        f"  mass: height {g.height:g} m, base {g.base_length:g} m, "
-        f"top length {g.top_length:.4f} m, area {g.area:.4f} m^2",
+        f"  {shape}",
         f"  time: dt {t.dt:g} s, end {t.end_time:g} s, at most {t.max_steps} steps",
         f"  output: {cfg.output.directory}",
     ]
+    if m.rheology == "mu_i":
+        from dpcollapse.rheology.wellposedness import well_posed_window
+        from dpcollapse.simulation import rheology
+
+        lo, hi = well_posed_window(rheology(cfg))
+        window = (f"{lo:.4g} < I < {hi:.4g}" if lo == lo else "empty (ill-posed for every I)")
+        lines.insert(2, f"  mu(I): mu_2 = {m.mu_2:.4f}, I0 = {m.inertial_number_I0:g}, "
+                        f"d = {m.grain_diameter:g} m; well-posed (Barker et al. 2015) for {window}")
     return "\n".join(lines)
 
 

@@ -177,11 +177,34 @@ class GeometryConfig(_Section):
 class MaterialConfig(_Section):
     """Granular material: regularized Drucker–Prager with a Newtonian part."""
 
-    rheology: Literal["drucker_prager"] = _f("drucker_prager", "", "Rheology of the material")
+    rheology: Literal["drucker_prager", "mu_i"] = _f(
+        "drucker_prager", "", "drucker_prager (constant viscosity) or mu_i (rate-dependent)")
     density: Number = _f(1550.0, "kg/m^3", "Bulk density rho", gt=0)
-    viscosity: Number = _f(1.0, "Pa s", "Newtonian viscosity eta", ge=0)
+    viscosity: Number = _f(1.0, "Pa s", "Newtonian viscosity eta (drucker_prager)", ge=0)
     friction_angle: Number = _f(25.5, "deg", "Internal friction angle; mu_s = tan", gt=0, lt=90)
     gravity: Number = _f(9.81, "m/s^2", "Magnitude g of gravity", gt=0)
+    cohesion: Number = _f(0.0, "Pa", "Cohesion kappa0: yield stress kappa0 + mu_s p in shear", ge=0)
+    friction_angle_2: Number = _f(
+        31.0, "deg", "mu_i: friction angle at large I; mu_2 = tan (must exceed friction_angle)",
+        gt=0, lt=90)
+    inertial_number_I0: Number = _f(0.4, "", "mu_i: I0 of mu(I) = mu_s + (mu_2 - mu_s)/(I0/I + 1)", gt=0)
+    grain_diameter: Number = _f(7.0e-4, "m", "mu_i: grain diameter d", gt=0)
+    grain_density: Number = _f(2500.0, "kg/m^3", "mu_i: grain density rho_s in I = d gamma_dot/sqrt(p/rho_s)", gt=0)
+    viscosity_cap: Number | None = _f(
+        None, "Pa s", "mu_i: cap eta_max on the effective viscosity (null: none)", gt=0)
+
+    @property
+    def mu_2(self) -> float:
+        """mu_2 = tan(friction_angle_2) [-]."""
+        return math.tan(math.radians(self.friction_angle_2))
+
+    @model_validator(mode="after")
+    def _mu_order(self) -> MaterialConfig:
+        if self.rheology == "mu_i" and self.friction_angle_2 <= self.friction_angle:
+            raise ConfigError(
+                f"material.friction_angle_2 = {_fmt(self.friction_angle_2)}: must be > "
+                f"material.friction_angle = {_fmt(self.friction_angle)} degrees for mu_i")
+        return self
 
     @property
     def mu_s(self) -> float:
@@ -198,6 +221,16 @@ class BoundaryConfig(_Section):
     wall_friction_angle: Number = _f(
         10.2, "deg", "Left-wall friction angle; mu_l = tan", ge=0, lt=90
     )
+    channel_width: Number | None = _f(
+        None, "m", "Width w of the channel: adds the side-wall friction (2/w) mu_w p u/|u| "
+        "(null: no side walls)", gt=0)
+    side_wall_friction_angle: Number = _f(
+        10.2, "deg", "Side-wall friction angle; mu_w = tan (used with channel_width)", ge=0, lt=90)
+
+    @property
+    def mu_side(self) -> float:
+        """Side-wall friction coefficient mu_w = tan(side_wall_friction_angle) [-]."""
+        return math.tan(math.radians(self.side_wall_friction_angle))
 
     @property
     def mu_bed(self) -> float:

@@ -36,6 +36,8 @@ from dpcollapse.io.diagnostics import DiagnosticsWriter
 from dpcollapse.io.runinfo import RunInfo
 from dpcollapse.io.xdmf import XDMFTimeSeries
 from dpcollapse.rheology.drucker_prager import DruckerPrager
+from dpcollapse.rheology.mu_i import MuI
+from dpcollapse.rheology.wellposedness import well_posed_window
 from dpcollapse.solvers.regularized import FlowParameters, PicardSettings, RegularizedFlow
 
 log = logging.getLogger("dpcollapse")
@@ -48,12 +50,21 @@ REMESH_AREA_TOLERANCE = 1e-6
 REMESH_COOLDOWN = 5
 
 
+def rheology(cfg: Config):
+    """The constitutive law of ``material``: DruckerPrager or MuI."""
+    m = cfg.material
+    if m.rheology == "mu_i":
+        return MuI(mu_s=m.mu_s, mu_2=m.mu_2, I0=m.inertial_number_I0, grain_diameter=m.grain_diameter,
+                   grain_density=m.grain_density, cohesion=m.cohesion, viscosity_cap=m.viscosity_cap)
+    return DruckerPrager(m.viscosity, m.mu_s, m.cohesion)
+
+
 def flow_parameters(cfg: Config) -> FlowParameters:
     m, b = cfg.material, cfg.boundary
     return FlowParameters(
         density=m.density, gravity=m.gravity, bed_angle=math.radians(cfg.geometry.bed_angle),
-        rheology=DruckerPrager(m.viscosity, m.mu_s), mu_bed=b.mu_bed, mu_wall=b.mu_wall,
-        bed_no_slip=b.bed_condition == "no_slip")
+        rheology=rheology(cfg), mu_bed=b.mu_bed, mu_wall=b.mu_wall,
+        bed_no_slip=b.bed_condition == "no_slip", channel_width=b.channel_width, mu_side=b.mu_side)
 
 
 def initial_velocity(cfg: Config):
@@ -92,6 +103,15 @@ class Discretization:
         self.out_flowing = fem.Function(S1, name="flowing")
         D = ufl.sym(ufl.grad(u))
         self._strain_expr = compat.expression(ufl.sqrt(ufl.inner(D, D)), S0)
+        self.law = law = self.flow.params.rheology
+        self.window = None
+        if isinstance(law, MuI):  # inertial number per cell, and the well-posed window
+            eps = cfg.numerics.epsilon
+            self.out_inertial = fem.Function(S0, name="inertial_number")
+            self._inertial_expr = compat.expression(law.inertial_number(u, p, eps), S0)
+            self._speed = fem.Function(S0)
+            self._speed_expr = compat.expression(ufl.sqrt(ufl.inner(u, u)), S0)
+            self.window = well_posed_window(law)
 
     def area(self) -> float:
         return self.comm.allreduce(fem.assemble_scalar(self._area), op=MPI.SUM)
@@ -110,7 +130,23 @@ class Discretization:
             "max_speed": self.comm.allreduce(float(speed.max()) if len(speed) else 0.0, op=MPI.MAX),
         }
         out.update(quality(self.mesh))
+        out["ill_posed_fraction"] = self.ill_posed_fraction()
         return out
+
+    def ill_posed_fraction(self) -> float:
+        """μ(I): fraction of the flowing cells (|u| > 1 mm/s) whose I lies outside the
+        well-posed window of Barker et al. (2015); NaN for other laws."""
+        if self.window is None:
+            return math.nan
+        n = compat.num_owned_cells(self.mesh)
+        self.out_inertial.interpolate(self._inertial_expr)
+        self._speed.interpolate(self._speed_expr)
+        I = self.out_inertial.x.array[:n]
+        flowing = self._speed.x.array[:n] > FLOWING_SPEED
+        lo, hi = self.window
+        bad = flowing & ((I < lo) | (I > hi)) if lo == lo else flowing
+        counts = self.comm.allreduce(np.array([bad.sum(), flowing.sum()], dtype=float), op=MPI.SUM)
+        return float(counts[0] / counts[1]) if counts[1] > 0 else 0.0
 
     def output_functions(self) -> list:
         sol = self.flow.solution
@@ -119,7 +155,11 @@ class Discretization:
         self.out_strain_rate.interpolate(self._strain_expr)
         speed = np.linalg.norm(self.out_velocity.x.array.reshape(-1, 2), axis=1)
         self.out_flowing.x.array[:] = (speed > FLOWING_SPEED).astype(float)
-        return [self.out_velocity, self.out_pressure, self.out_strain_rate, self.out_flowing]
+        fields = [self.out_velocity, self.out_pressure, self.out_strain_rate, self.out_flowing]
+        if self.window is not None:
+            self.out_inertial.interpolate(self._inertial_expr)
+            fields.append(self.out_inertial)
+        return fields
 
     def destroy(self) -> None:
         self.flow.destroy()
@@ -322,7 +362,9 @@ class Simulation:
 
     # ------------------------------------------------------------------ loop
     def run(self, observers=()) -> dict:
-        """The time loop. Each ``observer(sim)`` is called after every accepted step."""
+        """The time loop. Each ``observer(sim)`` is called after every accepted step; one that
+        returns True ends the run cleanly after that step (files written as at rest, status
+        "stopped_by_observer"). Under MPI it must return the same value on every rank."""
         cfg, st = self.cfg, self.state
         progress = Progress(self.comm, cfg.time.end_time, cfg.time.output_every, self.quiet)
         previous = signal.signal(signal.SIGTERM, _raise_interrupt)
@@ -336,18 +378,19 @@ class Simulation:
                        "residual": residual, "remeshes": st["remeshes"],
                        "wall_time": time.perf_counter() - self.wall0, **m}
                 self.diagnostics.write(row)
+                stop = False
                 for observe in observers:
-                    observe(self)
+                    stop = bool(observe(self)) or stop
                 progress.update(st["step"], st["t"], dt, iterations, m["front"])
                 resting = m["max_speed"] < cfg.time.rest_speed
                 st["rest_time"] = st["rest_time"] + dt if resting else 0.0
                 at_rest = resting and st["rest_time"] >= cfg.time.rest_duration
-                if st["step"] % cfg.time.output_every == 0 or at_rest:
+                if st["step"] % cfg.time.output_every == 0 or at_rest or stop:
                     self._output()
-                if st["step"] % cfg.time.checkpoint_every == 0 or at_rest:
+                if st["step"] % cfg.time.checkpoint_every == 0 or at_rest or stop:
                     self._checkpoint()
-                if at_rest:
-                    st["status"] = "at_rest"
+                if at_rest or stop:
+                    st["status"] = "at_rest" if at_rest else "stopped_by_observer"
                     break
             else:
                 st["status"] = "end_time"

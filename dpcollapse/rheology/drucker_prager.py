@@ -33,23 +33,26 @@ def frobenius_norm_sq(tensor):
 
 @dataclass(frozen=True)
 class DruckerPrager:
-    """σ' = 2η D + κ(p) D/√(|D|²+ε²), κ(p) = √2 μ_s [p]_+ (plus optional cohesion κ0).
+    """σ' = 2η D + κ(p) D/√(|D|²+ε²), κ(p) = √2 (κ0 + μ_s [p]_+), κ0 the cohesion [Pa].
 
     viscosity: η [Pa s] ≥ 0; friction_coefficient: μ_s = tan(internal friction angle) > 0.
     """
 
     viscosity: float
     friction_coefficient: float
+    cohesion: float = 0.0
 
     def __post_init__(self):
+        if not (self.cohesion >= 0 and math.isfinite(self.cohesion)):
+            raise ValueError(f"cohesion must be >= 0, got {self.cohesion}")
         if not (self.viscosity >= 0 and math.isfinite(self.viscosity)):
             raise ValueError(f"viscosity must be >= 0, got {self.viscosity}")
         if not (self.friction_coefficient > 0 and math.isfinite(self.friction_coefficient)):
             raise ValueError(f"friction_coefficient must be > 0, got {self.friction_coefficient}")
 
     def yield_stress(self, p):
-        """κ(p) = √2 μ_s [p]_+  [Pa]."""
-        return math.sqrt(2.0) * self.friction_coefficient * positive_part(p)
+        """κ(p) = √2 (κ0 + μ_s [p]_+)  [Pa]: in simple shear the yield stress κ0 + μ_s p."""
+        return math.sqrt(2.0) * (self.cohesion + self.friction_coefficient * positive_part(p))
 
     def secant_viscosity(self, u, p, epsilon):
         """The coefficient of D(v) in the Picard linearization: 2η + κ(p)/√(|D(u)|²+ε²)."""

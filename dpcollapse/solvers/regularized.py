@@ -22,7 +22,6 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.forms import friction, momentum
 from dpcollapse.geometry.mesher import BED, RIGHT, WALL, TaggedMesh
-from dpcollapse.rheology.drucker_prager import DruckerPrager
 from dpcollapse.solvers.anderson import Anderson
 from dpcollapse.solvers.assembly import LinearSystem
 from dpcollapse.solvers.linear import DirectSolver
@@ -35,10 +34,12 @@ class FlowParameters:
     density: float            # ρ [kg/m³]
     gravity: float            # g [m/s²]
     bed_angle: float          # θ [rad]
-    rheology: DruckerPrager
+    rheology: object          # DruckerPrager or MuI: yield_stress, secant_viscosity, deviatoric_stress
     mu_bed: float             # μ_b
     mu_wall: float            # μ_l
     bed_no_slip: bool = False  # u = 0 on the bed instead of u·n = 0 + Coulomb friction
+    channel_width: float | None = None  # w: side-wall friction (2/w) μ_w p u/|u| when given
+    mu_side: float = 0.0      # μ_w
 
     @property
     def body_force(self) -> tuple[float, float]:
@@ -130,6 +131,9 @@ class RegularizedFlow:
         for name, mu, tag in walls:
             if mu > 0 and self._has_tag(tag):
                 self.terms[name] = friction.coulomb_friction(mu, normal_stress, u_k, eps_f, u, v, n, ds(tag))
+        if p.channel_width and p.mu_side > 0:
+            self.terms["side_wall_friction"] = friction.side_wall_friction(
+                p.channel_width, p.mu_side, p_k, u_k, eps_f, u, v)
         a = sum(self.terms.values())
         L = momentum.gravity(rho, f, v) + momentum.previous_velocity(rho, self.dt, self.u_old, v)
         bcs = self._dirichlet_bcs()
