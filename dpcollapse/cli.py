@@ -217,6 +217,23 @@ def validate_plug(config: Path, out: Path, quick: bool) -> int:
     return 0
 
 
+@validate.command("bagnold")
+@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path),
+              default=Path("configs/bagnold.yaml"), show_default=True, help="Base config of the case.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("runs/validate_bagnold"), show_default=True, help="Output directory.")
+@click.option("--quick", is_flag=True, help="Two coarse meshes, looser steadiness (about 10 s).")
+def validate_bagnold(config: Path, out: Path, quick: bool) -> int:
+    """Steady mu(I) flow down a slope (periodic layer) vs the Bagnold profile, mesh sweep."""
+    if not config.is_file():
+        raise ConfigError(f"--config = {config}: file not found")
+    run = _lazy("dpcollapse.validation.bagnold", "validate_bagnold")
+    run(config, out, quick=quick, log=lambda msg: _rank() == 0 and click.echo(msg))
+    if _rank() == 0:
+        click.echo(f"wrote {out / 'bagnold.csv'} and {out / 'bagnold.png'}")
+    return 0
+
+
 def _error(message: str) -> None:
     """One line on stderr, from rank 0 only."""
     if _rank() == 0:

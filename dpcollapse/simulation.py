@@ -25,7 +25,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from dpcollapse import compat
-from dpcollapse.ale.motion import MeshMotion, quality, retag_landed
+from dpcollapse.ale.motion import MeshMotion, cell_orientation, quality, retag_landed
 from dpcollapse.ale.remesh import load_state, remesh_domain, snapshot
 from dpcollapse.config import Config, config_to_dict, save_config
 from dpcollapse.errors import ConvergenceError, Interrupted, MeshError
@@ -90,6 +90,7 @@ class Discretization:
         self.mesh = mesh = tagged.mesh
         self.comm = mesh.comm
         self.flow = RegularizedFlow(tagged, flow_parameters(cfg), picard_settings(cfg))
+        self.orientation = cell_orientation(mesh)
         self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
                                  cfg.numerics.linear_solver) if cfg.numerics.ale else None
         u, p = ufl.split(self.flow.solution)
@@ -129,7 +130,7 @@ class Discretization:
             "area": self.area(),
             "max_speed": self.comm.allreduce(float(speed.max()) if len(speed) else 0.0, op=MPI.MAX),
         }
-        out.update(quality(self.mesh))
+        out.update(quality(self.mesh, self.orientation))
         out["ill_posed_fraction"] = self.ill_posed_fraction()
         return out
 
@@ -309,7 +310,7 @@ class Simulation:
             t0 = time.perf_counter()
             motion.compute()
             self.ale_solves += 1
-            limit = self.dt_limit = motion.max_step()
+            limit = self.dt_limit = motion.max_step(dt)
             self.timings["mesh_motion"] += time.perf_counter() - t0
             if limit < dt:
                 log.debug("t = %.4f s: dt limited by the mesh motion to %.2e s", st["t"], limit)
@@ -320,6 +321,7 @@ class Simulation:
                 raise MeshError(f"mesh degenerate at t = {st['t']:.4f} s: the largest step that "
                                 f"keeps every cell valid is {limit:.1e} s < time.dt_min, even after a remesh")
             dt = min(dt, limit)
+        spent = 0  # iterations of failed attempts of this step (they cost as much)
         while True:
             old_x, landed = motion.move(dt) if motion is not None else (None, 0)
             before_landing = self.disc
@@ -328,6 +330,7 @@ class Simulation:
             t0 = time.perf_counter()
             report = self.disc.flow.solve_step(dt)
             self.timings["solve"] += time.perf_counter() - t0
+            spent += report.iterations
             if report.converged:
                 if landed:
                     st["landings"] = st.get("landings", 0) + landed
@@ -358,7 +361,7 @@ class Simulation:
         st["dt_target"] = min(cfg.time.dt, 2.0 * dt) if dt < st["dt_target"] else st["dt_target"]
         if st["dt_target"] < cfg.time.dt:
             st["dt_target"] = min(cfg.time.dt, 1.5 * st["dt_target"])
-        return dt, report.iterations, report.residual
+        return dt, spent, report.residual
 
     # ------------------------------------------------------------------ loop
     def run(self, observers=()) -> dict:

@@ -52,3 +52,9 @@ def test_time_order_and_outputs(quick):
 def test_cli_rejects_missing_config(tmp_path, capsys):
     assert main(["validate", "plug", "--config", str(tmp_path / "nope.yaml")]) == 2
     assert "--config" in capsys.readouterr().err
+
+
+def test_space_order(quick):
+    """Coarse meshes (20, 10, 5 mm), where the spatial error dominates at t = 0.8 s."""
+    res, _ = quick
+    assert res["orders"]["space"] >= 0.9

@@ -15,6 +15,12 @@ from dpcollapse.solvers.assembly import LinearSystem
 from dpcollapse.solvers.linear import DirectSolver
 
 
+#: A nose node closer to landing than this fraction of the step lands within the step.
+LANDING_FRACTION = 0.1
+#: Heights below this fraction of the domain length count as on the bed.
+LANDING_TOLERANCE = 1e-9
+
+
 class MeshMotion:
     """Mesh velocity of ``forms.mesh_velocity`` on P1 and the node update x ← x + Δt w.
 
@@ -74,23 +80,26 @@ class MeshMotion:
         """Mask of free-surface nodes ahead of the toe (an overturning front's nose)."""
         return x[self._surface_nodes, 0] > self.toe_position()
 
-    def max_step(self, shrink: float = 0.5) -> float:
-        """Largest Δt (global) such that every cell keeps ``shrink`` of its area, no
-        free-surface node behind the toe loses more than ``shrink`` of its height, and no
-        node of an overturning nose (ahead of the toe) goes below the bed: such a node
-        may land exactly on it (seed 000: "limit the time step so that the free surface
-        nodes do not cross the bottom")."""
+    def max_step(self, dt: float, shrink: float = 0.5) -> float:
+        """Largest step ≤ ``dt`` (global) such that every cell keeps ``shrink`` of its area,
+        no free-surface node behind the toe loses more than ``shrink`` of its height, and no
+        node of an overturning nose (ahead of the toe) goes below the bed: such a node lands
+        exactly on it (seed 000: "limit the time step so that the free surface nodes do not
+        cross the bottom"). A nose node that would land within ``LANDING_FRACTION``·dt does
+        not shorten the step (no Zeno sequence of ever smaller steps): it reaches the bed
+        during the step and ``move`` puts it there."""
         x = self.mesh.geometry.x[:, :2]
         vel = self.node_velocity()
-        tau = max_safe_step(x[self._cells], vel[self._cells], shrink)
+        tau = min(dt, max_safe_step(x[self._cells], vel[self._cells], shrink))
         y = x[self._surface_nodes, 1]
         vy = vel[self._surface_nodes, 1]
         ahead = self._overhang(x)
         falling = (vy < 0) & (y > 0)
         with np.errstate(divide="ignore", invalid="ignore"):
             limit = np.where(ahead, y, (1 - shrink) * y) / -vy
-        if np.any(falling):
-            tau = min(tau, float(np.min(limit[falling])))
+        constraining = falling & ~(ahead & (limit < LANDING_FRACTION * dt))
+        if np.any(constraining):
+            tau = min(tau, float(np.min(limit[constraining])))
         return self.mesh.comm.allreduce(tau, op=MPI.MIN)
 
     def move(self, dt: float) -> tuple[np.ndarray, int]:
@@ -103,7 +112,7 @@ class MeshMotion:
         x[:, :2] += dt * self.node_velocity()
         nodes = self._surface_nodes[ahead]
         scale = max(float(np.ptp(old[:, 0])), 1e-300)
-        landed = nodes[(x[nodes, 1] <= 1e-9 * scale) & (old[nodes, 1] > 0)]
+        landed = nodes[(x[nodes, 1] <= LANDING_TOLERANCE * scale) & (old[nodes, 1] > 0)]
         x[landed, 1] = 0.0
         return old, self.mesh.comm.allreduce(len(landed), op=MPI.SUM)
 
@@ -128,11 +137,19 @@ def retag_landed(tagged):
     return TaggedMesh(mesh, compat.meshtags(mesh, 1, ft.indices, values))
 
 
-def quality(mesh) -> dict:
-    """Global minimum det J and minimum angle [deg] of the owned cells."""
+def cell_orientation(mesh) -> np.ndarray:
+    """Sign of det J of each owned cell as built (gmsh cells are counter-clockwise, those
+    of ``create_rectangle`` are not all): inversion is a change of this sign."""
+    n = compat.num_owned_cells(mesh)
+    return np.sign(signed_areas(mesh.geometry.x[:, :2][compat.geometry_dofmap(mesh)[:n]]))
+
+
+def quality(mesh, orientation: np.ndarray | None = None) -> dict:
+    """Global minimum det J (relative to each cell's initial orientation: negative means
+    inverted) and minimum angle [deg] of the owned cells."""
     n = compat.num_owned_cells(mesh)
     tri = mesh.geometry.x[:, :2][compat.geometry_dofmap(mesh)[:n]]
-    det = signed_areas(tri)
+    det = signed_areas(tri) * (1.0 if orientation is None else orientation)
     ang = min_angles(tri)
     comm = mesh.comm
     return {
