@@ -200,37 +200,58 @@ def validate() -> None:
     """Validation cases against reference solutions (tables + PNG)."""
 
 
-@validate.command("plug")
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path),
-              default=Path("configs/plug.yaml"), show_default=True, help="Base config of the case.")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path),
-              default=Path("runs/validate_plug"), show_default=True, help="Output directory.")
-@click.option("--quick", is_flag=True, help="Coarse sweeps that finish in about a minute.")
-def validate_plug(config: Path, out: Path, quick: bool) -> int:
-    """Decelerating plug flow on a periodic inclined plane vs the 1D solution (seed 000 a)."""
-    if not config.is_file():
-        raise ConfigError(f"--config = {config}: file not found")
-    run = _lazy("dpcollapse.validation.plug", "validate_plug")
-    run(config, out, quick=quick, log=lambda msg: _rank() == 0 and click.echo(msg))
-    if _rank() == 0:
-        click.echo(f"wrote {out / 'plug.csv'} and {out / 'plug.png'}")
-    return 0
+def _validation(name: str, doc: str, quick_help: str) -> None:
+    """Register ``dpcollapse validate NAME``: runs ``dpcollapse.validation.NAME.validate_NAME``
+    on ``configs/NAME.yaml`` and writes NAME.csv and NAME.png into --out."""
+
+    @validate.command(name, help=doc)
+    @click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path),
+                  default=Path(f"configs/{name}.yaml"), show_default=True,
+                  help="Base config of the case.")
+    @click.option("--out", type=click.Path(file_okay=False, path_type=Path),
+                  default=Path(f"runs/validate_{name}"), show_default=True, help="Output directory.")
+    @click.option("--quick", is_flag=True, help=quick_help)
+    def command(config: Path, out: Path, quick: bool) -> int:
+        if not config.is_file():
+            raise ConfigError(f"--config = {config}: file not found")
+        run = _lazy(f"dpcollapse.validation.{name}", f"validate_{name}")
+        run(config, out, quick=quick, log=lambda msg: _rank() == 0 and click.echo(msg))
+        if _rank() == 0:
+            click.echo(f"wrote {out / f'{name}.csv'} and {out / f'{name}.png'}")
+        return 0
 
 
-@validate.command("bagnold")
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path),
-              default=Path("configs/bagnold.yaml"), show_default=True, help="Base config of the case.")
+_validation("plug", "Decelerating plug flow on a periodic inclined plane vs the 1D solution "
+            "(seed 000 a).", "Coarse sweeps that finish in about a minute.")
+_validation("bagnold", "Steady mu(I) flow down a slope (periodic layer) vs the Bagnold profile, "
+            "mesh sweep.", "Two coarse meshes, looser steadiness (about 10 s).")
+
+
+@cli.command()
+@click.option("--cases", default=None, metavar="NAME,...",
+              help="Cases to run, comma-separated: rigid_4cm, rigid_2cm, rigid_1cm, plug, bagnold "
+                   "(default: rigid_2cm,rigid_1cm,plug,bagnold; with --quick: rigid_4cm,plug).")
+@click.option("--quick", is_flag=True,
+              help="Tiny runs (short end times, growth on 2 coarse meshes) to check the harness.")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path),
-              default=Path("runs/validate_bagnold"), show_default=True, help="Output directory.")
-@click.option("--quick", is_flag=True, help="Two coarse meshes, looser steadiness (about 10 s).")
-def validate_bagnold(config: Path, out: Path, quick: bool) -> int:
-    """Steady mu(I) flow down a slope (periodic layer) vs the Bagnold profile, mesh sweep."""
-    if not config.is_file():
-        raise ConfigError(f"--config = {config}: file not found")
-    run = _lazy("dpcollapse.validation.bagnold", "validate_bagnold")
-    run(config, out, quick=quick, log=lambda msg: _rank() == 0 and click.echo(msg))
-    if _rank() == 0:
-        click.echo(f"wrote {out / 'bagnold.csv'} and {out / 'bagnold.png'}")
+              default=Path("runs/bench"), show_default=True, help="Output directory.")
+@click.option("--np", "nprocs", type=click.IntRange(min=0), default=2, show_default=True,
+              help="Rerun the cases under mpirun -n N and report the speed-up (0: no rerun).")
+@click.option("--growth/--no-growth", default=True, show_default=True,
+              help="Cost growth: time per step against unknowns on four mesh sizes.")
+@click.option("--configs", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Folder of the case configs (default: the repository's configs/).")
+@click.option("--result-json", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              hidden=True)
+def bench(cases: str | None, quick: bool, out: Path, nprocs: int, growth: bool,
+          configs: Path | None, result_json: Path | None) -> int:
+    """Benchmark suite: wall time, iterations, time split, memory, MPI speed-up, cost growth."""
+    _setup_logging(quiet=True)
+    parse = _lazy("dpcollapse.bench", "parse_cases")
+    parse(cases, quick)   # a bad --cases is refused before anything runs
+    run = _lazy("dpcollapse.bench", "run_bench")
+    run(out, cases=cases, quick=quick, nprocs=nprocs, growth=growth, configs=configs,
+        result_json=result_json, echo=click.echo)
     return 0
 
 

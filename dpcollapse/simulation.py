@@ -48,6 +48,9 @@ FLOWING_SPEED = 1e-3
 REMESH_AREA_TOLERANCE = 1e-6
 #: Steps between two remeshes triggered by the angle criterion alone.
 REMESH_COOLDOWN = 5
+#: Energy guard (moving domains): the kinetic energy may exceed the work of gravity by at
+#: most this fraction before the run is declared numerically unstable.
+ENERGY_TOLERANCE = 0.05
 
 
 def rheology(cfg: Config):
@@ -96,6 +99,8 @@ class Discretization:
         u, p = ufl.split(self.flow.solution)
         self._area = fem.form(1.0 * ufl.dx(domain=mesh))
         self._kinetic = fem.form(0.5 * cfg.material.density * ufl.inner(u, u) * ufl.dx)
+        f = fem.Constant(mesh, np.array(self.flow.params.body_force, dtype=compat.ScalarType))
+        self._gravity_moment = fem.form(cfg.material.density * ufl.inner(f, ufl.SpatialCoordinate(mesh)) * ufl.dx)
         # output functions on spaces XDMF writes faithfully (P1, DG0)
         V1, S1, S0 = compat.vector_space(mesh, 1), compat.scalar_space(mesh, 1), compat.scalar_space(mesh, 0, "DG")
         self.out_velocity = fem.Function(V1, name="velocity")
@@ -127,6 +132,7 @@ class Discretization:
             "front": self.comm.allreduce(float(front), op=MPI.MAX),
             "max_height": self.comm.allreduce(float(x[:, 1].max()), op=MPI.MAX),
             "kinetic_energy": self.comm.allreduce(fem.assemble_scalar(self._kinetic), op=MPI.SUM),
+            "gravity_moment": self.comm.allreduce(fem.assemble_scalar(self._gravity_moment), op=MPI.SUM),
             "area": self.area(),
             "max_speed": self.comm.allreduce(float(speed.max()) if len(speed) else 0.0, op=MPI.MAX),
         }
@@ -220,9 +226,11 @@ class Simulation:
         else:
             self.disc = Discretization(build_mesh(cfg, comm), cfg)
             self.disc.flow.set_velocity(initial_velocity(cfg))
+            m0 = self.disc.measures()
             self.state = {"t": 0.0, "step": 0, "dt_target": cfg.time.dt, "rest_time": 0.0,
-                          "remeshes": 0, "last_remesh_step": -10**9, "area0": self.disc.area(),
-                          "status": "running"}
+                          "remeshes": 0, "last_remesh_step": -10**9, "area0": m0["area"],
+                          "gravity_moment0": m0["gravity_moment"],
+                          "kinetic_energy0": m0["kinetic_energy"], "status": "running"}
         if comm.rank == 0:
             save_config(cfg, self.run_dir / "config.yaml")
         self.xdmf = XDMFTimeSeries(self.run_dir, comm)
@@ -273,10 +281,29 @@ class Simulation:
         self.state["remeshes"] += 1
         self.state["last_remesh_step"] = self.state["step"]
         self.timings["remesh"] += time.perf_counter() - t0
+
         log.info("remesh %d at t = %.4f s (%s): area %.8e -> %.8e m² (%+.2e rel), cells %d -> %d, "
                  "%d boundary vertices, max extrapolation %.1e m", self.state["remeshes"],
                  self.state["t"], reason, area_before, area_after,
                  (area_after - area_before) / area_before, cells_before, cells_after, nverts, outside)
+
+    def _check_energy(self, m: dict) -> None:
+        """Dissipative flow: KE(t) − KE(0) ≤ W(t), the work of gravity ρ∫f·x dx|₀ᵗ (valid when
+        the domain moves with the material). The explicit ALE moves the domain with the
+        previous step's velocity, so the kinetic energy of step n−1 is compared with the work
+        up to step n. A violation means a numerical instability."""
+        st = self.state
+        if self.disc.motion is None:
+            return
+        work = m["gravity_moment"] - st["gravity_moment0"]
+        gained = st.get("kinetic_energy_previous", st["kinetic_energy0"]) - st["kinetic_energy0"]
+        st["kinetic_energy_previous"] = m["kinetic_energy"]
+        if gained > (1 + ENERGY_TOLERANCE) * max(work, 0.0) + 1e-9 * max(abs(st["gravity_moment0"]), 1.0):
+            raise MeshError(
+                f"numerically unstable at t = {st['t']:.4f} s: the kinetic energy gained "
+                f"({gained:.3g} J/m) exceeds the work of gravity ({work:.3g} J/m); min cell angle "
+                f"{m['min_angle']:.2f}°: the mass is likely thinner than geometry.mesh_size = "
+                f"{self.cfg.geometry.mesh_size:g} m somewhere — use a finer mesh or a shorter time.end_time")
 
     def _rebuild(self, tagged: TaggedMesh) -> None:
         """A new discretization on the same mesh with new facet tags; same dofs, so the
@@ -376,6 +403,7 @@ class Simulation:
                 dt, iterations, residual = self._step()
                 self.iteration_counts.append(iterations)
                 m = self.disc.measures()
+                self._check_energy(m)
                 row = {"step": st["step"], "t": st["t"], "dt": dt, "dt_limit": self.dt_limit,
                        "iterations": iterations,
                        "residual": residual, "remeshes": st["remeshes"],

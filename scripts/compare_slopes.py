@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import logging
 import os
 import sys
@@ -28,6 +29,7 @@ RHEOLOGIES = {"mui": "μ(I)", "dp": "constant η"}
 
 def run_all(out: Path, mesh_size: float | None, end_time: float | None, log=print) -> list[dict]:
     from dpcollapse.config import load_config
+    from dpcollapse.errors import DpcollapseError
     from dpcollapse.io.diagnostics import read_diagnostics
     from dpcollapse.simulation import Simulation
 
@@ -43,7 +45,11 @@ def run_all(out: Path, mesh_size: float | None, end_time: float | None, log=prin
                 cfg = load_config(ROOT / "configs" / f"slope{slope}_{rh}.yaml", over)
                 name = f"slope{slope}_{rh}_{'walls' if walls else 'nowalls'}"
                 t0 = time.perf_counter()
-                summary = Simulation(cfg, out / name, quiet=True).run()
+                try:
+                    summary = Simulation(cfg, out / name, quiet=True).run()
+                except DpcollapseError as exc:  # reported, not hidden: the case keeps its rows
+                    info = json.loads((out / name / "run.json").read_text())
+                    summary = dict(info["summary"], status=f"failed: {exc}")
                 wall = time.perf_counter() - t0
                 d = read_diagnostics(out / name / "diagnostics.csv")
                 rows.append({"case": name, "slope": slope, "rheology": rh, "side_walls": walls,
@@ -52,7 +58,7 @@ def run_all(out: Path, mesh_size: float | None, end_time: float | None, log=prin
                              "front": summary["front"], "max_height": summary["max_height"],
                              "mean_iterations": summary["mean_iterations"], "wall_time": wall,
                              "t": d["t"], "front_history": d["front"]})
-                log(f"{name:28s} {summary['status']:9s} t = {summary['t']:.3f} s  runout "
+                log(f"{name:28s} {summary['status'][:60]:9s} t = {summary['t']:.3f} s  runout "
                     f"{rows[-1]['runout']:.4f} m  iterations/step {summary['mean_iterations']:.2f}  "
                     f"wall {wall:.1f} s")
     return rows

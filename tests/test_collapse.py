@@ -134,3 +134,18 @@ def test_full_rigid_case_reaches_rest(tmp_path):
     assert summary["kinetic_energy"] < 1e-6
     assert 0.55 < summary["front"] < 0.80  # runout of seed 000's deposit scale (~0.67 m here)
     assert 0.6 < summary["t"] < 1.5
+
+
+def test_energy_guard_detects_instability(tmp_path):
+    """More kinetic energy than gravity's work is an instability: MeshError, not a result."""
+    from dpcollapse.errors import MeshError
+
+    cfg = load_config(ROOT / "configs/rigid.yaml", ["geometry.mesh_size=0.03", "time.end_time=0.005"])
+    sim = Simulation(cfg, tmp_path, quiet=True)
+    sim.run()
+    m = sim.disc.measures()
+    sim._check_energy(m)  # the real state passes
+    sim.state["kinetic_energy_previous"] = m["kinetic_energy"] + 10.0 * (m["gravity_moment"]
+                                                                       - sim.state["gravity_moment0"] + 1.0)
+    with pytest.raises(MeshError, match="numerically unstable"):
+        sim._check_energy(m)
