@@ -89,7 +89,7 @@ class Channel:
 
 def solve_once(system, solver, target):
     A = system.assemble_matrix()
-    b = system.assemble_vector()
+    system.assemble_vector()
     solver.set_operator(A)
     system.solve(solver, target)
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import os
 import shutil
-import subprocess
 import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -23,7 +22,7 @@ from dolfinx import fem
 from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
-from tests.helpers import PV_MARK, PV_SCRIPT, clean_env, paraview_summaries
+from tests.helpers import paraview_summaries
 
 from dpcollapse import compat
 from dpcollapse.io.xdmf import XDMFTimeSeries

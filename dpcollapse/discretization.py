@@ -1,0 +1,148 @@
+"""Everything that lives on one mesh, and the physics built from the config.
+
+``Discretization`` bundles the regularized flow, the ALE mesh motion, the output functions
+and the integrals (area, kinetic energy, gravity's moment) of one mesh; the time loop in
+``simulation`` replaces it on every remesh or landing.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
+
+from dpcollapse import compat
+from dpcollapse.ale.motion import MeshMotion, cell_orientation, quality
+from dpcollapse.config import Config
+from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.rheology.drucker_prager import DruckerPrager
+from dpcollapse.rheology.mu_i import MuI
+from dpcollapse.rheology.wellposedness import well_posed_window
+from dpcollapse.solvers.regularized import FlowParameters, PicardSettings, RegularizedFlow
+
+#: Speed above which a point counts as flowing (seed 000) [m/s].
+FLOWING_SPEED = 1e-3
+
+
+def rheology(cfg: Config):
+    """The constitutive law of ``material``: DruckerPrager or MuI."""
+    m = cfg.material
+    if m.rheology == "mu_i":
+        return MuI(mu_s=m.mu_s, mu_2=m.mu_2, I0=m.inertial_number_I0, grain_diameter=m.grain_diameter,
+                   grain_density=m.grain_density, cohesion=m.cohesion, viscosity_cap=m.viscosity_cap)
+    return DruckerPrager(m.viscosity, m.mu_s, m.cohesion)
+
+
+def flow_parameters(cfg: Config) -> FlowParameters:
+    m, b = cfg.material, cfg.boundary
+    return FlowParameters(
+        density=m.density, gravity=m.gravity, bed_angle=math.radians(cfg.geometry.bed_angle),
+        rheology=rheology(cfg), mu_bed=b.mu_bed, mu_wall=b.mu_wall,
+        bed_no_slip=b.bed_condition == "no_slip", channel_width=b.channel_width, mu_side=b.mu_side)
+
+
+def initial_velocity(cfg: Config):
+    """The initial velocity u(x, y) as a callable for ``Function.interpolate``:
+    rest, or the half-Poiseuille profile U_s (2y/h − y²/h²) along the bed."""
+    h, us = cfg.geometry.height, cfg.initial.surface_speed
+    if cfg.initial.velocity == "half_poiseuille":
+        return lambda x: np.vstack([us * (2 * x[1] / h - (x[1] / h) ** 2), np.zeros(x.shape[1])])
+    return lambda x: np.zeros((2, x.shape[1]))
+
+
+def picard_settings(cfg: Config) -> PicardSettings:
+    n = cfg.numerics
+    return PicardSettings(n.epsilon, n.epsilon_friction, n.nonlinear_rtol, n.nonlinear_atol,
+                          n.max_iterations, n.linear_solver, n.anderson_depth)
+
+
+class Discretization:
+    """Everything that lives on one mesh: the flow, the mesh motion, outputs, integrals."""
+
+    def __init__(self, tagged: TaggedMesh, cfg: Config):
+        self.tagged = tagged
+        self.mesh = mesh = tagged.mesh
+        self.comm = mesh.comm
+        self.flow = RegularizedFlow(tagged, flow_parameters(cfg), picard_settings(cfg))
+        self.orientation = cell_orientation(mesh)
+        self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
+                                 cfg.numerics.linear_solver) if cfg.numerics.ale else None
+        u, p = ufl.split(self.flow.solution)
+        self._area = fem.form(1.0 * ufl.dx(domain=mesh))
+        self._kinetic = fem.form(0.5 * cfg.material.density * ufl.inner(u, u) * ufl.dx)
+        f = fem.Constant(mesh, np.array(self.flow.params.body_force, dtype=compat.ScalarType))
+        self._gravity_moment = fem.form(cfg.material.density * ufl.inner(f, ufl.SpatialCoordinate(mesh)) * ufl.dx)
+        # output functions on spaces XDMF writes faithfully (P1, DG0)
+        V1, S1, S0 = compat.vector_space(mesh, 1), compat.scalar_space(mesh, 1), compat.scalar_space(mesh, 0, "DG")
+        self.out_velocity = fem.Function(V1, name="velocity")
+        self.out_pressure = fem.Function(S1, name="pressure")
+        self.out_strain_rate = fem.Function(S0, name="strain_rate")
+        self.out_flowing = fem.Function(S1, name="flowing")
+        D = ufl.sym(ufl.grad(u))
+        self._strain_expr = compat.expression(ufl.sqrt(ufl.inner(D, D)), S0)
+        self.law = law = self.flow.params.rheology
+        self.window = None
+        if isinstance(law, MuI):  # inertial number per cell, and the well-posed window
+            eps = cfg.numerics.epsilon
+            self.out_inertial = fem.Function(S0, name="inertial_number")
+            self._inertial_expr = compat.expression(law.inertial_number(u, p, eps), S0)
+            self._speed = fem.Function(S0)
+            self._speed_expr = compat.expression(ufl.sqrt(ufl.inner(u, u)), S0)
+            self.window = well_posed_window(law)
+
+    def area(self) -> float:
+        return self.comm.allreduce(fem.assemble_scalar(self._area), op=MPI.SUM)
+
+    def measures(self) -> dict:
+        """Front position (furthest x of the mass: the toe, or the nose of an overturning
+        front), maximum height, kinetic energy, area, max speed, mesh quality."""
+        x = self.mesh.geometry.x
+        front = x[:, 0].max() if len(x) else -np.inf
+        speed = np.linalg.norm(self.flow.u_old.x.array.reshape(-1, 2), axis=1)
+        out = {
+            "front": self.comm.allreduce(float(front), op=MPI.MAX),
+            "max_height": self.comm.allreduce(float(x[:, 1].max()), op=MPI.MAX),
+            "kinetic_energy": self.comm.allreduce(fem.assemble_scalar(self._kinetic), op=MPI.SUM),
+            "gravity_moment": self.comm.allreduce(fem.assemble_scalar(self._gravity_moment), op=MPI.SUM),
+            "area": self.area(),
+            "max_speed": self.comm.allreduce(float(speed.max()) if len(speed) else 0.0, op=MPI.MAX),
+        }
+        out.update(quality(self.mesh, self.orientation))
+        out["ill_posed_fraction"] = self.ill_posed_fraction()
+        return out
+
+    def ill_posed_fraction(self) -> float:
+        """μ(I): fraction of the flowing cells (|u| > 1 mm/s) whose I lies outside the
+        well-posed window of Barker et al. (2015); NaN for other laws."""
+        if self.window is None:
+            return math.nan
+        n = compat.num_owned_cells(self.mesh)
+        self.out_inertial.interpolate(self._inertial_expr)
+        self._speed.interpolate(self._speed_expr)
+        I = self.out_inertial.x.array[:n]
+        flowing = self._speed.x.array[:n] > FLOWING_SPEED
+        lo, hi = self.window
+        bad = flowing & ((I < lo) | (I > hi)) if lo == lo else flowing
+        counts = self.comm.allreduce(np.array([bad.sum(), flowing.sum()], dtype=float), op=MPI.SUM)
+        return float(counts[0] / counts[1]) if counts[1] > 0 else 0.0
+
+    def output_functions(self) -> list:
+        sol = self.flow.solution
+        self.out_velocity.interpolate(sol.sub(0))
+        self.out_pressure.interpolate(sol.sub(1))
+        self.out_strain_rate.interpolate(self._strain_expr)
+        speed = np.linalg.norm(self.out_velocity.x.array.reshape(-1, 2), axis=1)
+        self.out_flowing.x.array[:] = (speed > FLOWING_SPEED).astype(float)
+        fields = [self.out_velocity, self.out_pressure, self.out_strain_rate, self.out_flowing]
+        if self.window is not None:
+            self.out_inertial.interpolate(self._inertial_expr)
+            fields.append(self.out_inertial)
+        return fields
+
+    def destroy(self) -> None:
+        self.flow.destroy()
+        if self.motion is not None:
+            self.motion.destroy()
