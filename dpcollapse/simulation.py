@@ -55,10 +55,21 @@ class Progress:
         self.quiet = quiet
         self.every = every
         self.bar = None
+        self._redirect = None
         if self.rank0 and not quiet and sys.stderr.isatty():
             from tqdm import tqdm
+            from tqdm.contrib.logging import logging_redirect_tqdm
 
-            self.bar = tqdm(total=end_time, unit="s", bar_format="{l_bar}{bar}| {n:.3f}/{total:.2f} s {postfix}")
+            self.bar = tqdm(total=end_time, unit="s", bar_format="{l_bar}{bar}| {n:.3f}/{total:.2f} s{postfix}")
+            # log lines (remeshes, warnings) go above the bar instead of into it
+            root = logging.getLogger()
+            filters = [f for h in root.handlers for f in h.filters]
+            self._redirect = logging_redirect_tqdm(loggers=[root])
+            self._redirect.__enter__()
+            for handler in root.handlers:  # keep the CLI's filters (no JIT build noise)
+                for f in filters:
+                    if f not in handler.filters:
+                        handler.addFilter(f)
 
     def update(self, step: int, t: float, dt: float, iterations: int, front: float) -> None:
         if not self.rank0 or self.quiet:
@@ -70,8 +81,12 @@ class Progress:
             log.info("step %d  t = %.4f s  dt = %.2e s  iterations %d  front %.4f m", step, t, dt, iterations, front)
 
     def close(self) -> None:
+        if self._redirect is not None:
+            self._redirect.__exit__(None, None, None)
+            self._redirect = None
         if self.bar is not None:
             self.bar.close()
+            self.bar = None
 
 
 def _raise_interrupt(signum, frame):
