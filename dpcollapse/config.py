@@ -254,6 +254,9 @@ class NumericsConfig(_Section):
     )
     nonlinear_atol: Number = _f(1.0e-7, "m/s", "Fixed-point stop, absolute part", ge=0)
     max_iterations: Count = _f(100, "", "Most fixed-point iterations per time step", ge=1)
+    reuse_factorization: bool = _f(
+        False, "", "Factorize once per time step; later fixed-point iterates solve with GMRES "
+        "preconditioned by that LU (experimental)")
     anderson_depth: Count = _f(
         5, "", "Anderson acceleration of the fixed point: history length m (0 = plain Picard)",
         ge=0, le=50)

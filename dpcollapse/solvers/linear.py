@@ -10,12 +10,24 @@ from petsc4py import PETSc
 
 
 class DirectSolver:
-    """LU factorization of a PETSc matrix, reused across solves."""
+    """LU factorization of a PETSc matrix, reused across solves.
 
-    def __init__(self, comm, package: str = "mumps", prefix: str = "dpc_"):
+    With ``krylov=True`` the KSP is GMRES preconditioned by the LU factors, so that
+    ``set_operator(A, refactor=False)`` keeps the old (stale) factorization as the
+    preconditioner of the new matrix instead of factorizing again.
+    """
+
+    def __init__(self, comm, package: str = "mumps", prefix: str = "dpc_", krylov: bool = False,
+                 rtol: float = 1e-10):
         self.ksp = PETSc.KSP().create(comm)
         self.ksp.setOptionsPrefix(prefix)
-        self.ksp.setType("preonly")
+        self.krylov = krylov
+        if krylov:
+            self.ksp.setType("gmres")
+            self.ksp.setTolerances(rtol=rtol, atol=0.0, max_it=30)
+            self.ksp.setGMRESRestart(30)
+        else:
+            self.ksp.setType("preonly")
         pc = self.ksp.getPC()
         pc.setType("lu")
         pc.setFactorSolverType(package)
@@ -26,10 +38,14 @@ class DirectSolver:
         self.ksp.setFromOptions()
         self.factorizations = 0
 
-    def set_operator(self, A: PETSc.Mat) -> None:
-        """Give a (re)assembled matrix; the next solve refactorizes it."""
+    def set_operator(self, A: PETSc.Mat, refactor: bool = True) -> None:
+        """Give a (re)assembled matrix; the next solve refactorizes it unless ``refactor``
+        is False (Krylov mode only: the old factors precondition the new matrix)."""
+        reuse = self.krylov and not refactor
+        self.ksp.getPC().setReusePreconditioner(reuse)
         self.ksp.setOperators(A)
-        self.factorizations += 1
+        if not reuse:
+            self.factorizations += 1
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
         self.ksp.solve(b, x)

@@ -55,6 +55,7 @@ class PicardSettings:
     max_iterations: int
     linear_solver: str = "mumps"
     anderson_depth: int = 0    # 0: plain Picard; m > 0: Anderson acceleration of depth m
+    reuse_factorization: bool = False  # one LU per step; later iterates: GMRES + stale LU
 
 
 @dataclass
@@ -93,7 +94,8 @@ class RegularizedFlow:
 
         self.dt = fem.Constant(mesh, compat.ScalarType(1e-3))
         self._build_forms()
-        self.solver = DirectSolver(self.comm, settings.linear_solver, prefix="dpc_flow_")
+        self.solver = DirectSolver(self.comm, settings.linear_solver, prefix="dpc_flow_",
+                                   krylov=settings.reuse_factorization)
         size_local = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
         self._owned_velocity = self.velocity_dofs[self.velocity_dofs < size_local]
         self._n_velocity = self.comm.allreduce(len(self._owned_velocity), op=MPI.SUM)
@@ -204,9 +206,16 @@ class RegularizedFlow:
         for k in range(1, s.max_iterations + 1):
             A = self.system.assemble_matrix()
             b = self.system.assemble_vector()
-            self.solver.set_operator(A)
+            stale = s.reuse_factorization and k > 1
+            self.solver.set_operator(A, refactor=not stale)
             try:
-                self.system.solve(self.solver, target=self.solution, b=b)
+                try:
+                    self.system.solve(self.solver, target=self.solution, b=b)
+                except RuntimeError:
+                    if not stale:
+                        raise
+                    self.solver.set_operator(A, refactor=True)  # stale LU too far off
+                    self.system.solve(self.solver, target=self.solution, b=b)
             except RuntimeError as exc:
                 self.iterate.x.array[:] = start
                 return StepReport(False, k, math.nan, str(exc))
