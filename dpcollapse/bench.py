@@ -160,19 +160,19 @@ class Instrument:
         assemble_matrix, assemble_vector = system.assemble_matrix, system.assemble_vector
         set_operator, solve = solver.set_operator, solver.solve
 
-        def timed_assemble_matrix(*args, **kwargs):
-            t0 = clock()
-            try:
-                return assemble_matrix(*args, **kwargs)
-            finally:
-                times["assembly"] += clock() - t0
+        def timed(fn, bucket):
+            """``fn`` with its wall time added to ``times[bucket]``."""
+            def call(*args, **kwargs):
+                t0 = clock()
+                try:
+                    return fn(*args, **kwargs)
+                finally:
+                    times[bucket] += clock() - t0
+            return call
 
-        def timed_assemble_vector(*args, **kwargs):
-            t0 = clock()
-            try:
-                return assemble_vector(*args, **kwargs)
-            finally:
-                times["assembly"] += clock() - t0
+        timed_assemble_matrix = timed(assemble_matrix, "assembly")
+        timed_assemble_vector = timed(assemble_vector, "assembly")
+        timed_solve_inner = timed(solve, "solve")
 
         def timed_set_operator(A, *args, **kwargs):
             set_operator(A, *args, **kwargs)
@@ -185,11 +185,9 @@ class Instrument:
                     times["factorization"] += clock() - t0
 
         def timed_solve(*args, **kwargs):
-            t0 = clock()
             try:
-                return solve(*args, **kwargs)
+                return timed_solve_inner(*args, **kwargs)
             finally:
-                times["solve"] += clock() - t0
                 self.linear_solves += 1
 
         system.assemble_matrix = timed_assemble_matrix

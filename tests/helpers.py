@@ -4,7 +4,6 @@ import json
 import os
 import tempfile
 
-import pytest
 import shutil
 import subprocess
 import sys
@@ -28,8 +27,7 @@ def clean_env():
 def paraview_summaries(*masters):
     """One pvpython start-up reading every master; the JSON summaries in order."""
     pvpython = shutil.which("pvpython")
-    if pvpython is None:
-        pytest.skip("pvpython (ParaView) is not on PATH; scripts/setup.sh installs it")
+    assert pvpython is not None, "pvpython (ParaView) is not on PATH: scripts/setup.sh installs it"
     proc = subprocess.run(
         [pvpython, str(PV_SCRIPT), *map(str, masters)],
         capture_output=True,

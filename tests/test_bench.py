@@ -109,8 +109,8 @@ def test_mpi_rerun_and_speedup(tmp_path):
     """--np 2: the cases rerun under mpirun as a subprocess; the speed-up is reported."""
     import shutil
 
-    if shutil.which("mpirun") is None and shutil.which("mpiexec") is None:
-        pytest.skip("no MPI launcher on PATH")
+    assert shutil.which("mpirun") or shutil.which("mpiexec"), \
+        "no MPI launcher on PATH: scripts/setup.sh installs openmpi-bin"
     status = main(["bench", "--quick", "--cases", "rigid_4cm", "--np", "2", "--no-growth",
                    "--out", str(tmp_path)])
     assert status == 0
