@@ -228,6 +228,34 @@ _validation("bagnold", "Steady mu(I) flow down a slope (periodic layer) vs the B
 
 
 @cli.command()
+@click.argument("case", type=click.Choice(["plug", "collapse"]))
+@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Base config (default: configs/plug.yaml or configs/rigid.yaml).")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Output directory (default: runs/compare_CASE).")
+@click.option("--quick", is_flag=True, help="Two short runs, one per method (checks the harness).")
+def compare(case: str, config: Path | None, out: Path | None, quick: bool) -> int:
+    """Regularization vs augmented Lagrangian: accuracy against wall time (CSV + PNG) and the
+    wall-time ratio at matched accuracy, all measured in this run."""
+    config = config or Path("configs/plug.yaml" if case == "plug" else "configs/rigid.yaml")
+    out = out or Path(f"runs/compare_{case}")
+    if not config.is_file():
+        raise ConfigError(f"--config = {config}: file not found")
+    _setup_logging(quiet=True)
+    run = _lazy("dpcollapse.validation.compare", f"compare_{case}")
+    echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
+    runs = run(config, out, quick=quick, log=echo)
+    ratio = _lazy("dpcollapse.validation.compare", "matched_ratio")(runs)
+    if ratio:
+        echo(f"matched accuracy {ratio['accuracy']:.3e}: regularized ({ratio['regularized']}) "
+             f"{ratio['regularized_wall']:.1f} s, augmented Lagrangian ({ratio['augmented_lagrangian']}) "
+             f"{ratio['augmented_lagrangian_wall']:.1f} s: ratio regularized/AL "
+             f"{ratio['ratio_regularized_over_al']:.2f}")
+    echo(f"wrote {out / f'compare_{case}.csv'} and {out / f'compare_{case}.png'}")
+    return 0
+
+
+@cli.command()
 @click.option("--cases", default=None, metavar="NAME,...",
               help="Cases to run, comma-separated: rigid_4cm, rigid_2cm, rigid_1cm, plug, bagnold "
                    "(default: rigid_2cm,rigid_1cm,plug,bagnold; with --quick: rigid_4cm,plug).")

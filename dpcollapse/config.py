@@ -246,7 +246,16 @@ class BoundaryConfig(_Section):
 class NumericsConfig(_Section):
     """Regularization, the fixed-point iteration, the linear solver and the moving mesh."""
 
-    method: Literal["regularized"] = _f("regularized", "", "Treatment of the yield stress")
+    method: Literal["regularized", "augmented_lagrangian"] = _f(
+        "regularized", "", "Treatment of the yield stress and wall friction: regularization "
+        "(Picard) or augmented Lagrangian (exact rigid zones)")
+    augmentation: Number | None = _f(
+        None, "Pa s", "Augmented Lagrangian: penalty r (null: 2*rho*sqrt(g)*h0^1.5)", gt=0)
+    augmentation_friction: Number | None = _f(
+        None, "Pa s/m", "Augmented Lagrangian: friction penalty r_f (null: 10*r/h0)", gt=0)
+    augmented_max_iterations: Count = _f(
+        5000, "", "Augmented Lagrangian: most iterations per time step (each is one "
+        "back-substitution, no factorization)", ge=1)
     epsilon: Number = _f(1.0e-6, "1/s", "Regularization of |D|", gt=0)
     epsilon_friction: Number = _f(1.0e-6, "m/s", "Regularization of |u_T| in wall friction", gt=0)
     nonlinear_rtol: Number = _f(

@@ -21,6 +21,7 @@ from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.rheology.drucker_prager import DruckerPrager
 from dpcollapse.rheology.mu_i import MuI
 from dpcollapse.rheology.wellposedness import well_posed_window
+from dpcollapse.solvers.augmented import AugmentedLagrangianFlow, AugmentedSettings, default_augmentation
 from dpcollapse.solvers.regularized import FlowParameters, PicardSettings, RegularizedFlow
 
 #: Speed above which a point counts as flowing (seed 000) [m/s].
@@ -60,6 +61,26 @@ def picard_settings(cfg: Config) -> PicardSettings:
                           n.reuse_factorization)
 
 
+def augmented_settings(cfg: Config) -> AugmentedSettings:
+    """Settings of the augmented Lagrangian; r, r_f default to 2ρ√g h0^{3/2} and 10 r/h0."""
+    n, m, h = cfg.numerics, cfg.material, cfg.geometry.height
+    r, r_f, r_w = default_augmentation(m.density, m.gravity, h)
+    if n.augmentation is not None:
+        r, r_w = n.augmentation, n.augmentation / h**2
+        r_f = 10.0 * n.augmentation / h
+    if n.augmentation_friction is not None:
+        r_f = n.augmentation_friction
+    return AugmentedSettings(r, r_f, r_w, n.nonlinear_rtol, n.nonlinear_atol, n.augmented_max_iterations,
+                             n.epsilon, n.linear_solver, n.anderson_depth)
+
+
+def make_flow(tagged: TaggedMesh, cfg: Config):
+    """The flow solver of ``numerics.method`` on one mesh."""
+    if cfg.numerics.method == "augmented_lagrangian":
+        return AugmentedLagrangianFlow(tagged, flow_parameters(cfg), augmented_settings(cfg))
+    return RegularizedFlow(tagged, flow_parameters(cfg), picard_settings(cfg))
+
+
 class Discretization:
     """Everything that lives on one mesh: the flow, the mesh motion, outputs, integrals."""
 
@@ -67,7 +88,7 @@ class Discretization:
         self.tagged = tagged
         self.mesh = mesh = tagged.mesh
         self.comm = mesh.comm
-        self.flow = RegularizedFlow(tagged, flow_parameters(cfg), picard_settings(cfg))
+        self.flow = make_flow(tagged, cfg)
         self.orientation = cell_orientation(mesh)
         self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
                                  cfg.numerics.linear_solver) if cfg.numerics.ale else None
@@ -82,6 +103,9 @@ class Discretization:
         self.out_pressure = fem.Function(S1, name="pressure")
         self.out_strain_rate = fem.Function(S0, name="strain_rate")
         self.out_flowing = fem.Function(S1, name="flowing")
+        self.out_rigid = None
+        if isinstance(self.flow, AugmentedLagrangianFlow):  # exact rigid zone: γ̇ = 0
+            self.out_rigid = fem.Function(S0, name="rigid")
         D = ufl.sym(ufl.grad(u))
         self._strain_expr = compat.expression(ufl.sqrt(ufl.inner(D, D)), S0)
         self.law = law = self.flow.params.rheology
@@ -138,6 +162,10 @@ class Discretization:
         speed = np.linalg.norm(self.out_velocity.x.array.reshape(-1, 2), axis=1)
         self.out_flowing.x.array[:] = (speed > FLOWING_SPEED).astype(float)
         fields = [self.out_velocity, self.out_pressure, self.out_strain_rate, self.out_flowing]
+        if self.out_rigid is not None:
+            cells = compat.cell_dofs(self.out_rigid.function_space)[:, 0]
+            self.out_rigid.x.array[cells] = self.flow.rigid_cells().astype(float)
+            fields.append(self.out_rigid)
         if self.window is not None:
             self.out_inertial.interpolate(self._inertial_expr)
             fields.append(self.out_inertial)

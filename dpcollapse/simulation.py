@@ -24,7 +24,8 @@ from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.ale.motion import quality, retag_landed
-from dpcollapse.ale.remesh import load_state, remesh_domain, snapshot
+from dpcollapse.ale.remesh import (load_multipliers, load_state, remesh_domain, snapshot,
+                                  snapshot_multipliers)
 from dpcollapse.config import Config, config_to_dict, save_config
 from dpcollapse.errors import ConvergenceError, Interrupted, MeshError
 from dpcollapse.geometry.mesher import TaggedMesh
@@ -106,9 +107,10 @@ class Simulation:
         self.checkpoint_path = self.run_dir / "checkpoint.npz"
         resume = resume and self.checkpoint_path.exists()
         if resume:
-            tagged, u, p, self.state = load_checkpoint(self.checkpoint_path, comm)
+            tagged, u, p, self.state, extra = load_checkpoint(self.checkpoint_path, comm)
             self.disc = Discretization(tagged, cfg)
             load_state(self.disc.flow, u, p)
+            load_multipliers(self.disc.flow, extra)
             self.disc.flow.solution.x.array[:] = self.disc.flow.iterate.x.array
             log.info("resuming from t = %.4f s (step %d)", self.state["t"], self.state["step"])
         else:
@@ -150,7 +152,8 @@ class Simulation:
         self.state["checkpoint_step"] = self.state["step"]
         t0 = time.perf_counter()
         u, p = snapshot(self.disc.flow)
-        save_checkpoint(self.checkpoint_path, self.disc.tagged, u, p, self.state)
+        save_checkpoint(self.checkpoint_path, self.disc.tagged, u, p, self.state,
+                        snapshot_multipliers(self.disc.flow))
         self.timings["output"] += time.perf_counter() - t0
 
     def _remesh(self, reason: str) -> None:
@@ -159,12 +162,14 @@ class Simulation:
         area_before = old.area()
         cells_before = self.comm.allreduce(compat.num_owned_cells(old.mesh), op=MPI.SUM)
         u, p = snapshot(old.flow)
+        multipliers = snapshot_multipliers(old.flow)
         tagged, d_poly, nverts = remesh_domain(
             old.tagged, cfg.geometry.mesh_size, cfg.geometry.surface_mesh_size,
             REMESH_AREA_TOLERANCE * self.state["area0"])
         self._retire(old)
         self.disc = Discretization(tagged, cfg)
         outside = load_state(self.disc.flow, u, p)
+        load_multipliers(self.disc.flow, multipliers)
         area_after = self.disc.area()
         cells_after = self.comm.allreduce(compat.num_owned_cells(tagged.mesh), op=MPI.SUM)
         self.state["remeshes"] += 1
@@ -208,6 +213,11 @@ class Simulation:
         new = self.disc.flow
         for name in ("solution", "iterate", "u_old", "mesh_velocity"):
             getattr(new, name).x.array[:] = getattr(old.flow, name).x.array
+        if hasattr(new, "multiplier_functions"):  # augmented Lagrangian: same dofs too
+            olds = old.flow.multiplier_functions()
+            for name, func in new.multiplier_functions().items():
+                func.x.array[:] = olds[name].x.array
+            new.pressure_known = old.flow.pressure_known
 
     def _needs_remesh(self) -> str | None:
         if self.disc.motion is None:

@@ -80,6 +80,51 @@ def load_state(flow, u_field: CellwiseField, p_field: CellwiseField) -> float:
     return flow.comm.allreduce(float(outside), op=MPI.MAX)
 
 
+#: Discontinuous fields are evaluated this fraction of the way from each dof towards its
+#: cell's centroid, so that a dof on a shared vertex or edge takes its own cell's value
+#: (exact on the same mesh: a checkpoint restores the multipliers as they were).
+INSIDE_SHIFT = 1e-6
+
+
+def _evaluation_points(V) -> np.ndarray:
+    """Where to evaluate a snapshot for V's dofs: the dof coordinates, pulled slightly into
+    their cell for discontinuous spaces (every local dof belongs to one local cell)."""
+    x = V.tabulate_dof_coordinates()[:, :2].copy()
+    if V.ufl_element().family() not in ("DG", "Discontinuous Lagrange"):
+        return x
+    mesh = V.mesh
+    cells = compat.cell_dofs(V)
+    centroids = mesh.geometry.x[:, :2][compat.geometry_dofmap(mesh)[:len(cells), :3]].mean(axis=1)
+    for j in range(cells.shape[1]):
+        x[cells[:, j]] += INSIDE_SHIFT * (centroids - x[cells[:, j]])
+    return x
+
+
+def snapshot_multipliers(flow) -> dict[str, CellwiseField]:
+    """The augmented Lagrangian multipliers of ``flow`` (none for other solvers), gathered on
+    every rank: DG tensors (σ', γ̇) and P2 vectors (σ_T, δ, σ_w, δ_w), cell by cell."""
+    fields = {}
+    for name, func in getattr(flow, "multiplier_functions", dict)().items():
+        V = func.function_space
+        bs = V.dofmap.index_map_bs
+        degree = V.ufl_element().degree()
+        fields[name] = concatenate(flow.comm.allgather(_cellwise(V, func.x.array, bs, degree)))
+    return fields
+
+
+def load_multipliers(flow, fields: dict[str, CellwiseField]) -> None:
+    """Evaluate snapshots of multipliers at ``flow``'s dof coordinates (a warm start for the
+    iteration: the converged step does not depend on it). Missing names are left at zero."""
+    targets = getattr(flow, "multiplier_functions", dict)()
+    for name, field in fields.items():
+        if name in targets:
+            func = targets[name]
+            x = _evaluation_points(func.function_space)
+            func.x.array[:] = field.evaluate(x).ravel()
+    if targets and fields:
+        flow.pressure_known = True
+
+
 def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float | None,
                   max_area_change: float) -> tuple[TaggedMesh, float, int]:
     """A new mesh of the current domain; returns (mesh, polygon area change, #vertices)."""

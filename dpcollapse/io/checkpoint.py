@@ -42,8 +42,9 @@ def _global_mesh(tagged: TaggedMesh):
 
 
 def save_checkpoint(path: Path, tagged: TaggedMesh, u: CellwiseField, p: CellwiseField,
-                    state: dict) -> None:
-    """Write the checkpoint (collective; rank 0 writes)."""
+                    state: dict, extra: dict[str, CellwiseField] | None = None) -> None:
+    """Write the checkpoint (collective; rank 0 writes); ``extra``: further named fields
+    (the augmented Lagrangian multipliers)."""
     mesh_data = _global_mesh(tagged)
     if tagged.mesh.comm.rank != 0:
         return
@@ -52,15 +53,23 @@ def save_checkpoint(path: Path, tagged: TaggedMesh, u: CellwiseField, p: Cellwis
               "state": np.array(json.dumps(state))}
     arrays.update({f"u_{k}": v for k, v in u.to_arrays().items()})
     arrays.update({f"p_{k}": v for k, v in p.to_arrays().items()})
+    extra = extra or {}
+    arrays["extra_fields"] = np.array(list(extra), dtype=str)
+    for name, field in extra.items():
+        arrays.update({f"x_{name}_{k}": v for k, v in field.to_arrays().items()})
     path = Path(path)
     tmp = path.with_name(path.stem + ".tmp.npz")
     np.savez(tmp, **arrays)
     os.replace(tmp, path)
 
 
-def load_checkpoint(path: Path, comm) -> tuple[TaggedMesh, CellwiseField, CellwiseField, dict]:
-    """Rebuild the mesh (distributed over ``comm``) and the fields from a checkpoint."""
+def load_checkpoint(path: Path, comm) -> tuple[TaggedMesh, CellwiseField, CellwiseField, dict, dict]:
+    """Rebuild the mesh (distributed over ``comm``) and the fields from a checkpoint:
+    (mesh, u, p, state, extra fields by name)."""
     data = np.load(path)
+    names = [str(n) for n in data["extra_fields"]] if "extra_fields" in data.files else []
+    extra = {name: CellwiseField.from_arrays({k[len(name) + 3:]: data[k] for k in data.files
+                                              if k.startswith(f"x_{name}_")}) for name in names}
     u = CellwiseField.from_arrays({k[2:]: data[k] for k in data.files if k.startswith("u_")})
     p = CellwiseField.from_arrays({k[2:]: data[k] for k in data.files if k.startswith("p_")})
     state = json.loads(str(data["state"]))
@@ -71,4 +80,4 @@ def load_checkpoint(path: Path, comm) -> tuple[TaggedMesh, CellwiseField, Cellwi
         x, cells = np.zeros((0, 2)), np.zeros((0, 3), dtype=np.int64)
         edges, edge_tags = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int32)
     tagged = compat.mesh_with_facet_tags(comm, cells, x, edges, edge_tags)
-    return tagged, u, p, state
+    return tagged, u, p, state, extra

@@ -54,6 +54,10 @@ class DruckerPrager:
         """κ(p) = √2 (κ0 + μ_s [p]_+)  [Pa]: in simple shear the yield stress κ0 + μ_s p."""
         return math.sqrt(2.0) * (self.cohesion + self.friction_coefficient * positive_part(p))
 
+    def rate_viscosity(self, u, p, epsilon):
+        """η [Pa s]: the rate-dependent part σ' − κ D/|D| = 2η D, constant here."""
+        return self.viscosity
+
     def secant_viscosity(self, u, p, epsilon):
         """The coefficient of D(v) in the Picard linearization: 2η + κ(p)/√(|D(u)|²+ε²)."""
         D = strain_rate(u)

@@ -137,15 +137,18 @@ class RegularizedFlow:
                 p.channel_width, p.mu_side, p_k, u_k, eps_f, u, v)
         a = sum(self.terms.values())
         L = momentum.gravity(rho, f, v) + momentum.previous_velocity(rho, self.dt, self.u_old, v)
+        self.system = self._make_system(a, L)
+
+    def _make_system(self, a, L):
+        """The linear system of (a, L) with the Dirichlet conditions; periodic in x (slave
+        side RIGHT, master side x = 0) when the mesh has a RIGHT tag."""
         bcs = self._dirichlet_bcs()
         if self._has_tag(RIGHT):
             from dpcollapse.solvers.periodic import PeriodicLinearSystem
 
-            length = self.comm.allreduce(float(mesh.geometry.x[:, 0].max()), op=MPI.MAX)
-            self.system = PeriodicLinearSystem(a, L, bcs, self.W, self.tagged.facet_tags,
-                                               RIGHT, (-length, 0.0))
-        else:
-            self.system = LinearSystem(a, L, bcs)
+            length = self.comm.allreduce(float(self.mesh.geometry.x[:, 0].max()), op=MPI.MAX)
+            return PeriodicLinearSystem(a, L, bcs, self.W, self.tagged.facet_tags, RIGHT, (-length, 0.0))
+        return LinearSystem(a, L, bcs)
 
     def _has_tag(self, tag: int) -> bool:
         local = bool(np.any(self.tagged.facet_tags.values == tag))

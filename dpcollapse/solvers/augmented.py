@@ -1,0 +1,486 @@
+"""One time step by the augmented Lagrangian (decomposition–coordination) method, seed 002.
+
+The yield term is not regularized: the strain rate is split as D(u) = γ̇ with the multiplier
+σ' (the deviatoric stress), and Coulomb friction as u_T = δ with the multiplier σ_T (the
+tangential traction). Iterations k = 1, 2, … of a time step:
+
+1. the linear Stokes/Oseen problem of ``forms.augmented`` for (u, p) given (σ', γ̇, σ_T, δ);
+   its matrix (ρ/Δt, convection by uⁿ − w, penalties r, r_f) is the same for every k, so it
+   is factorized once per step;
+2. the closed-form local steps of ``solvers.al_projection`` at the nodes of the DG2 tensor
+   space (γ̇ from σ' + r dev D(u) with κ(p) and η(|D|, p) of the current iterate) and at the
+   boundary nodes of the P2 velocity space (δ from σ_T − r_f u_T with the Coulomb limit
+   μ [p − σ'_nn]_+, lumped onto the wall's nodes);
+3. σ' ← σ' + r (D(u) − γ̇), σ_T ← σ_T − r_f (u_T − δ).
+
+Stop when the multiplier residuals and the velocity change are all small::
+
+    ‖D(u) − γ̇‖ ≤ rtol ‖D(u)‖ + atol/ℓ,   ‖u_T − δ‖_Γ ≤ rtol ‖u_T‖_Γ + atol,
+    ‖u^k − u^{k−1}‖ max(1, ρ/(1 − ρ)) ≤ rtol ‖u^k‖ + atol
+
+(ρ the observed contraction of successive velocity increments: the distance to the limit
+of a linearly converging iteration, as in ``solvers.regularized``)
+(root mean squares over Ω, Γ and the velocity dofs; ℓ = √|Ω|). The rigid zone is where
+γ̇ = 0 exactly. Multipliers are carried from step to step (warm start); on the moving mesh
+their nodal values move with the nodes, like uⁿ.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fem_petsc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from dpcollapse import compat
+from dpcollapse.forms import augmented, momentum
+from dpcollapse.geometry.mesher import BED, WALL
+from dpcollapse.rheology.drucker_prager import DruckerPrager, strain_rate
+from dpcollapse.solvers import al_projection as local
+from dpcollapse.solvers.anderson import Anderson
+from dpcollapse.solvers.regularized import CONTRACTION_CAP, FlowParameters, RegularizedFlow, StepReport
+
+
+#: Polynomial degree of the discontinuous multiplier space (γ̇, σ') and of the nodes where
+#: the local steps are taken.
+MULTIPLIER_DEGREE = 2
+
+
+@dataclass(frozen=True)
+class AugmentedSettings:
+    """Parameters of the augmented Lagrangian iteration."""
+
+    augmentation: float            # r [Pa s]
+    augmentation_friction: float   # r_f [Pa s/m] on bed and wall
+    augmentation_side: float       # r_w [Pa s/m²] for side-wall friction
+    rtol: float
+    atol: float                    # [m/s]
+    max_iterations: int
+    epsilon: float = 1e-6          # μ(I) only: |D|_ε in η(|D|, p), so η is finite at rest [1/s]
+    linear_solver: str = "mumps"
+    anderson_depth: int = 0        # Anderson acceleration of the multiplier iteration
+    reuse_factorization: bool = False  # (unused: the operator is fixed within a step)
+
+
+def default_augmentation(density: float, gravity: float, height: float) -> tuple[float, float, float]:
+    """r = 2 ρ √g H^{3/2} [Pa s] (twice the stress ρgH over the rate √(g/H)), r_f = 10 r/H,
+    r_w = r/H². Measured: 1214 Pa s on the 25 cm collapse (r = 300 stalls the first steps,
+    1000 runs), 108 on the 5 cm plug layer (5 to 500 all converge there); on the collapse's
+    first step (4 cm mesh) r_f = r/H stalls on the sticking bed, 10 r/H converges in 2151
+    iterations, 100 r/H in 2538."""
+    r = 2.0 * density * math.sqrt(gravity) * height ** 1.5
+    return r, 10.0 * r / height, r / height**2
+
+
+class AugmentedLagrangianFlow(RegularizedFlow):
+    """Spaces, state, multipliers and solvers of the augmented Lagrangian flow on one mesh.
+
+    Same interface as :class:`RegularizedFlow` (solution, iterate, u_old, mesh_velocity,
+    solve_step, accept_step, reset_iterate), plus the multipliers ``sigma`` (σ'), ``gamma``
+    (γ̇) on DG1 tensors and ``traction`` (σ_T), ``slip`` (δ) on the P2 velocity space.
+    """
+
+    def __init__(self, tagged, params: FlowParameters, settings: AugmentedSettings):
+        super().__init__(tagged, params, settings)
+        #: False until a pressure field exists (initial state): the first step then iterates
+        #: the yield limit κ(p) to convergence instead of lagging it
+        self.pressure_known = False
+        nT = self.T.dofmap.index_map.size_local * 4
+        nV = self.V.dofmap.index_map.size_local * 2
+        self._owned_sizes = (nT, nT, nV, nV, nV, nV)
+        # the iteration's natural norm: ‖σ‖²/r + r‖γ̇‖² (Pa²/(Pa s) either way), same for walls
+        r, r_f, r_w = settings.augmentation, settings.augmentation_friction, settings.augmentation_side
+        scales = (1.0 / r, r, 1.0 / r_f, r_f, 1.0 / r_w, r_w)
+        weights = np.concatenate([np.full(n, w) for n, w in zip(self._owned_sizes, scales)])
+        self.anderson = Anderson(self.comm, settings.anderson_depth, len(weights), weights)
+
+    # ------------------------------------------------------------------ forms
+    def _build_forms(self) -> None:
+        mesh, p, s = self.mesh, self.params, self.settings
+        (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
+        u_h, p_h = ufl.split(self.solution)
+        rho = fem.Constant(mesh, compat.ScalarType(p.density))
+        f = fem.Constant(mesh, np.array(p.body_force, dtype=compat.ScalarType))
+        self.r = r = fem.Constant(mesh, compat.ScalarType(s.augmentation))
+        self.r_f = r_f = fem.Constant(mesh, compat.ScalarType(s.augmentation_friction))
+        self.r_w = r_w = fem.Constant(mesh, compat.ScalarType(s.augmentation_side))
+        ds = ufl.Measure("ds", domain=mesh, subdomain_data=self.tagged.facet_tags)
+        n = ufl.FacetNormal(mesh)
+
+        # multipliers: DG2 tensors hold D(u) of P2 velocities exactly (affine cells); the local steps
+        # at their six nodes per cell resolve the yield surface better than DG1 (measured)
+        self.T = compat.tensor_space(mesh, MULTIPLIER_DEGREE, "DG")
+        self.S = compat.scalar_space(mesh, MULTIPLIER_DEGREE, "DG")
+        self.sigma = fem.Function(self.T, name="deviatoric_stress")      # σ'
+        self.gamma = fem.Function(self.T, name="yield_multiplier")       # γ̇
+        self.rate = fem.Function(self.T, name="strain_rate_tensor")      # D(u^k)
+        self.kappa = fem.Function(self.S, name="yield_stress")           # κ(p^k)
+        self.eta = fem.Function(self.S, name="viscosity")                # η(|D(u^k)|, p^k)
+        self.traction = fem.Function(self.V, name="tangential_traction")  # σ_T
+        self.slip = fem.Function(self.V, name="slip_multiplier")         # δ
+        self.side_traction = fem.Function(self.V, name="side_wall_traction")  # σ_w
+        self.side_slip = fem.Function(self.V, name="side_wall_slip")     # δ_w
+        rheo = p.rheology
+        # the deviatoric part: Taylor–Hood velocities are divergence-free only weakly, and a
+        # trace in γ̇, σ' would trade off against p (and so κ(p)) and stall the iteration
+        self._rate_expr = compat.expression(ufl.dev(strain_rate(u_h)), self.T)
+        self._kappa_expr = compat.expression(rheo.yield_stress(p_h), self.S)
+        if isinstance(rheo, DruckerPrager):
+            self._eta_expr = None
+            self.eta.x.array[:] = rheo.viscosity
+        else:  # μ(I): η_μI(|D|_ε, p), capped at η_max when given
+            eta = rheo.rate_viscosity(u_h, p_h, s.epsilon)
+            if getattr(rheo, "viscosity_cap", None) is not None:
+                eta = ufl.min_value(eta, rheo.viscosity_cap)
+            self._eta_expr = compat.expression(eta, self.S)
+
+        self.terms = {
+            "inertia": momentum.inertia(rho, self.dt, u, v),
+            "convection": momentum.convection(rho, self.u_old, self.mesh_velocity, u, v),
+            "augmented_viscous": augmented.augmented_viscous(r, u, v),
+            "pressure": momentum.pressure(pr, v),
+            "incompressibility": momentum.incompressibility(q, u),
+        }
+        L = (momentum.gravity(rho, f, v) + momentum.previous_velocity(rho, self.dt, self.u_old, v)
+             + augmented.multiplier_stress(self.sigma, self.gamma, r, v))
+
+        # Coulomb walls: bed (unless no-slip) and left wall, where μ > 0
+        walls = [(p.mu_wall, WALL)]
+        if not p.bed_no_slip:
+            walls.insert(0, (p.mu_bed, BED))
+        walls = [(mu, tag) for mu, tag in walls if mu > 0 and self._has_tag(tag)]
+        self.has_friction = bool(walls)
+        if walls:
+            ds_f = sum((ds(tag) for _, tag in walls[1:]), ds(walls[0][1]))
+            self.terms["boundary_augmentation"] = augmented.boundary_augmentation(r_f, u, v, n, ds_f)
+            L = L + augmented.boundary_multiplier(self.traction, self.slip, r_f, v, n, ds_f)
+            self._setup_friction_nodes(walls)
+            vV = ufl.TestFunction(self.V)
+            ones = vV[0] + vV[1]
+            sigma_nn = ufl.dot(n, ufl.dot(self.sigma, n))
+            self._normal_form = fem.form((p_h - sigma_nn) * ones * ds_f)   # ∫ (p − σ'_nn) φ_i
+            self._weight_form = fem.form(ones * ds_f)                       # ∫ φ_i
+            self._normal = fem.Function(self.V)
+            self._weight = fem.Function(self.V)
+
+        self.has_side_walls = bool(p.channel_width and p.mu_side > 0)
+        if self.has_side_walls:
+            self.terms["volume_augmentation"] = augmented.volume_augmentation(r_w, u, v)
+            L = L + augmented.volume_multiplier(self.side_traction, self.side_slip, r_w, v)
+            self._side_threshold_expr = compat.expression(
+                2.0 / p.channel_width * p.mu_side * ufl.as_vector((p_h, p_h)), self.V)
+            self._side_threshold = fem.Function(self.V)
+
+        a = sum(self.terms.values())
+        self.system = self._make_system(a, L)
+
+    def _setup_friction_nodes(self, walls) -> None:
+        """Velocity nodes (blocks of V) on the friction walls, their unit tangent and μ.
+        Nodes on two walls (the corner, where u = 0) are left out."""
+        fdim = self.mesh.topology.dim - 1
+        ft = self.tagged.facet_tags
+        found = {}
+        for mu, tag in walls:
+            blocks = fem.locate_dofs_topological(self.V, fdim, ft.indices[ft.values == tag])
+            found[tag] = (mu, np.asarray(blocks, dtype=np.int64))
+        blocks, tangents, mus = [], [], []
+        tangent = {BED: (1.0, 0.0), WALL: (0.0, 1.0)}   # bed y = 0, wall x = 0
+        shared = set()
+        if len(found) == 2:
+            shared = set(found[BED][1]) & set(found[WALL][1])
+        for tag, (mu, b) in found.items():
+            b = np.array([i for i in b if i not in shared], dtype=np.int64)
+            blocks.append(b)
+            tangents.append(np.tile(tangent[tag], (len(b), 1)))
+            mus.append(np.full(len(b), mu))
+        self._f_blocks = np.concatenate(blocks)
+        self._f_tangent = np.concatenate(tangents)
+        self._f_mu = np.concatenate(mus)
+        self._threshold = np.zeros(len(self._f_blocks))
+
+    # ------------------------------------------------------------------ helpers
+    def _sum(self, form) -> float:
+        return self.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+
+    def _assemble_nodal(self, form, target: fem.Function) -> None:
+        vec = target.vector
+        with vec.localForm() as loc:
+            loc.set(0.0)
+        fem_petsc.assemble_vector(vec, form)
+        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        target.x.scatter_forward()
+
+    def _multipliers(self) -> tuple:
+        return (self.sigma, self.gamma, self.traction, self.slip, self.side_traction, self.side_slip)
+
+    def multiplier_functions(self) -> dict[str, fem.Function]:
+        """The multipliers by name, for transfer across remeshes and checkpoints."""
+        return {f.name: f for f in self._multipliers()}
+
+    def _state(self) -> list[np.ndarray]:
+        return [f.x.array for f in self._multipliers()]
+
+    def multiplier_arrays(self) -> list[np.ndarray]:
+        """Copies of (σ', γ̇, σ_T, δ, σ_w, δ_w) dof arrays (local incl. ghosts)."""
+        return [a.copy() for a in self._state()]
+
+    def set_multiplier_arrays(self, arrays) -> None:
+        for target, values in zip(self._state(), arrays):
+            target[:] = values
+
+    def rigid_cells(self) -> np.ndarray:
+        """Per local cell: True where γ̇ = 0 exactly at all its nodes (rigid zone)."""
+        dofs = compat.cell_dofs(self.T)          # (cells, nodes) block indices
+        g = self.gamma.x.array.reshape(-1, 4)
+        return np.all(g[dofs] == 0.0, axis=(1, 2))
+
+    # ------------------------------------------------------------------ coefficients
+    def _update_coefficients(self) -> float:
+        """κ(p), η(|D|, p) and the Coulomb limits μ[p − σ'_nn]_+ (walls), (2/w)μ_w[p]_+ (side
+        walls) from the current (u, p, σ'); returns their largest relative RMS change.
+
+        They are held fixed while the multipliers iterate: each inner problem is then convex
+        and the iteration converges, whereas updating κ(p) at every iteration (seed 002,
+        step 2) stalls it on the collapse (measured: the residual stops decreasing)."""
+        changes = []
+
+        def refresh(values: np.ndarray, compute) -> None:
+            old = values.copy()
+            compute()
+            n = len(values)
+            diff = self.comm.allreduce(float(np.dot(values - old, values - old)), op=MPI.SUM)
+            norm = self.comm.allreduce(float(np.dot(values, values)), op=MPI.SUM)
+            count = self.comm.allreduce(n, op=MPI.SUM)
+            changes.append(math.sqrt(diff) / max(math.sqrt(norm), 1e-300 * count))
+
+        refresh(self.kappa.x.array, lambda: self.kappa.interpolate(self._kappa_expr))
+        if self._eta_expr is not None:
+            refresh(self.eta.x.array, lambda: self.eta.interpolate(self._eta_expr))
+        if self.has_friction:
+            refresh(self._threshold, self._compute_wall_threshold)
+        if self.has_side_walls:
+            refresh(self._side_threshold.x.array, lambda: self._side_threshold.interpolate(self._side_threshold_expr))
+        return max(changes)
+
+    def _compute_wall_threshold(self) -> None:
+        """μ [p − σ'_nn]_+ at the wall nodes, p − σ'_nn averaged along the wall with the
+        nodal weights ∫_Γ φ_i ds."""
+        self._assemble_nodal(self._normal_form, self._normal)
+        b = self._f_blocks
+        weight = self._weight.x.array.reshape(-1, 2)[b, 0]
+        normal = self._normal.x.array.reshape(-1, 2)[b, 0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            pressure = np.where(weight > 0, normal / weight, 0.0)
+        self._threshold[:] = self._f_mu * np.maximum(pressure, 0.0)
+
+    def _lithostatic_pressure(self) -> None:
+        """First guess of p where none exists yet (the initial state):
+        p = ρ g cos θ [s(x) − y]_+ with s(x) the free-surface height above x. The first step
+        then starts from the yield limit of a mass at rest, not from κ = 0."""
+        from dpcollapse.geometry.mesher import SURFACE
+
+        ft = self.tagged.facet_tags
+        facets = ft.indices[ft.values == SURFACE]
+        nodes = compat.entities_to_geometry(self.mesh, 1, facets)
+        pts = self.mesh.geometry.x[:, :2][nodes.ravel()] if len(facets) else np.zeros((0, 2))
+        pts = np.concatenate(self.comm.allgather(pts))
+        if len(pts) == 0:
+            return
+        xs, inverse = np.unique(np.round(pts[:, 0], 12), return_inverse=True)
+        top = np.full(len(xs), -np.inf)
+        np.maximum.at(top, inverse, pts[:, 1])
+        xq = self.Q.tabulate_dof_coordinates()[:, :2]
+        surface = np.interp(xq[:, 0], xs, top)
+        weight = self.params.density * self.params.gravity * math.cos(self.params.bed_angle)
+        pressure = weight * np.maximum(surface - xq[:, 1], 0.0)
+        for f in (self.solution, self.iterate):
+            f.x.array[self.pressure_dofs] = pressure
+
+    # ------------------------------------------------------------------ local steps
+    def _local_yield(self) -> None:
+        """Steps 2–3 for the yield term at the nodes of the multiplier space."""
+        r = float(self.r.value)
+        self.rate.interpolate(self._rate_expr)
+        D = self.rate.x.array.reshape(-1, 2, 2)
+        sigma = self.sigma.x.array.reshape(-1, 2, 2)
+        gamma = local.yield_multiplier(sigma, D, self.kappa.x.array, self.eta.x.array, r)
+        self.sigma.x.array[:] = local.update_stress(sigma, D, gamma, r).ravel()
+        self.gamma.x.array[:] = gamma.ravel()
+
+    def _local_friction(self, u: np.ndarray) -> None:
+        """Steps 2–3 for Coulomb friction at the wall nodes: δ and σ_T."""
+        r_f = float(self.r_f.value)
+        b, t = self._f_blocks, self._f_tangent
+        u_t = np.sum(u[b] * t, axis=1)[:, None] * t
+        traction = self.traction.x.array.reshape(-1, 2)
+        slip = self.slip.x.array.reshape(-1, 2)
+        delta = local.slip_multiplier(traction[b], u_t, self._threshold, 0.0, r_f)
+        traction[b] = local.update_traction(traction[b], u_t, delta, r_f)
+        slip[b] = delta
+
+    def _local_side_walls(self, u: np.ndarray) -> None:
+        """Steps 2–3 for the width-averaged side-wall friction at every velocity node."""
+        r_w = float(self.r_w.value)
+        threshold = np.maximum(self._side_threshold.x.array.reshape(-1, 2)[:, 0], 0.0)
+        traction = self.side_traction.x.array.reshape(-1, 2)
+        delta = local.slip_multiplier(traction, u, threshold, 0.0, r_w)
+        traction[:] = local.update_traction(traction, u, delta, r_w)
+        self.side_slip.x.array[:] = delta.ravel()
+
+    # ------------------------------------------------------------------ norms
+    def _cell_areas(self) -> np.ndarray:
+        """|K| of the owned cells (the mesh moves every step)."""
+        x = self.mesh.geometry.x[:, :2]
+        cells = compat.geometry_dofmap(self.mesh)[:compat.num_owned_cells(self.mesh), :3]
+        a, b, c = x[cells[:, 0]], x[cells[:, 1]], x[cells[:, 2]]
+        return 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+
+    def _dg_norm(self, values: np.ndarray) -> float:
+        """RMS over Ω of a DG tensor field given by its dof array, with the lumped (nodal)
+        quadrature ∫_K |f|² ≈ |K| mean_i |f_i|² (an equivalent norm; exact for constants)."""
+        v = values.reshape(-1, 4)[self._cell_blocks]          # (owned cells, nodes, 4)
+        local = float(np.sum(self._areas * np.mean(np.sum(v * v, axis=2), axis=1)))
+        return math.sqrt(max(self.comm.allreduce(local, op=MPI.SUM), 0.0) / self._area_total)
+
+    def _wall_norm(self, vectors: np.ndarray) -> float:
+        """RMS over the friction walls of nodal vectors at ``_f_blocks`` (lumped: Σ wᵢ|fᵢ|²/Σ wᵢ)."""
+        w = self._f_weights
+        local = float(np.sum(w * np.sum(vectors * vectors, axis=1)))
+        return math.sqrt(max(self.comm.allreduce(local, op=MPI.SUM), 0.0) / self._wall_total)
+
+    def _node_rms(self, vectors: np.ndarray) -> float:
+        """RMS over the owned velocity nodes of nodal vectors (n_nodes, 2)."""
+        n = self.V.dofmap.index_map.size_local
+        local = float(np.sum(vectors[:n] * vectors[:n]))
+        count = self.comm.allreduce(n, op=MPI.SUM)
+        return math.sqrt(self.comm.allreduce(local, op=MPI.SUM) / max(count, 1))
+
+    def _prepare_norms(self) -> None:
+        """Cell areas, the owned cells' DG1 blocks and the wall nodes' lumped weights."""
+        self._areas = self._cell_areas()
+        self._cell_blocks = compat.cell_dofs(self.T)[:len(self._areas)]
+        self._area_total = self.comm.allreduce(float(self._areas.sum()), op=MPI.SUM)
+        if self.has_friction:
+            self._assemble_nodal(self._weight_form, self._weight)
+            owned = self._f_blocks < self.V.dofmap.index_map.size_local
+            self._f_weights = np.where(owned, self._weight.x.array.reshape(-1, 2)[self._f_blocks, 0], 0.0)
+            self._wall_total = max(self.comm.allreduce(float(self._f_weights.sum()), op=MPI.SUM), 1e-300)
+
+    # ------------------------------------------------------------------ the step
+    def _checks(self, u: np.ndarray, gamma_old: np.ndarray, slip_old: np.ndarray,
+                side_slip_old: np.ndarray, speed: float) -> list[tuple[float, float]]:
+        """(value, tolerance) pairs of the stopping test after the local steps.
+
+        Yield term: the constraint D(u) = γ̇ and the changes of both multipliers,
+        ‖D − γ̇‖ ≤ rtol max(‖D‖, ‖γ̇‖) + atol/ℓ, r‖D − γ̇‖ and r‖γ̇ − γ̇_old‖ ≤ rtol‖σ'‖ + r atol/ℓ;
+        friction the same with u_T, δ, σ_T, r_f, the slip constraint relative to the RMS
+        velocity ``speed`` of the flow (a sticking wall has no slip scale of its own);
+        side walls with u, δ_w, σ_w, r_w.
+        """
+        s = self.settings
+        r, r_f, r_w = float(self.r.value), float(self.r_f.value), float(self.r_w.value)
+        tol = s.atol / self._length_scale
+        D, gamma = self.rate.x.array, self.gamma.x.array
+        primal = self._dg_norm(D - gamma)
+        dual = self._dg_norm(gamma - gamma_old)
+        stress = self._dg_norm(self.sigma.x.array)
+        checks = [(primal, s.rtol * max(self._dg_norm(D), self._dg_norm(gamma)) + tol),
+                  (r * primal, s.rtol * stress + r * tol),
+                  (r * dual, s.rtol * stress + r * tol)]
+        if self.has_friction:
+            b, t = self._f_blocks, self._f_tangent
+            u_t = np.sum(u[b] * t, axis=1)[:, None] * t
+            slip = self.slip.x.array.reshape(-1, 2)[b]
+            primal = self._wall_norm(u_t - slip)
+            dual = self._wall_norm(slip - slip_old.reshape(-1, 2)[b])
+            traction = self._wall_norm(self.traction.x.array.reshape(-1, 2)[b])
+            checks += [(primal, s.rtol * speed + s.atol),
+                       (r_f * primal, s.rtol * traction + r_f * s.atol),
+                       (r_f * dual, s.rtol * traction + r_f * s.atol)]
+        if self.has_side_walls:
+            slip = self.side_slip.x.array.reshape(-1, 2)
+            primal = self._node_rms(u - slip)
+            dual = self._node_rms(slip - side_slip_old.reshape(-1, 2))
+            traction = self._node_rms(self.side_traction.x.array.reshape(-1, 2))
+            checks += [(primal, s.rtol * speed + s.atol),
+                       (r_w * primal, s.rtol * traction + r_w * s.atol),
+                       (r_w * dual, s.rtol * traction + r_w * s.atol)]
+        return checks
+
+    def solve_step(self, dt: float) -> StepReport:
+        """Augmented Lagrangian iterations for one time step of size ``dt``."""
+        s = self.settings
+        self.dt.value = dt
+        start = self.iterate.x.array.copy()
+        start_multipliers = self.multiplier_arrays()
+        A = self.system.assemble_matrix()
+        self.solver.set_operator(A)
+        self._prepare_norms()
+        self._length_scale = math.sqrt(self._area_total)
+        if not self.pressure_known:
+            self._lithostatic_pressure()
+        self._update_coefficients()   # from the last accepted state (uⁿ, pⁿ, σ'ⁿ)
+        self.coefficient_updates = 0
+        self.anderson.reset()
+        residual = math.inf
+        previous = 0.0
+
+        def fail(k: int, message: str) -> StepReport:
+            self.iterate.x.array[:] = start
+            self.solution.x.array[:] = start
+            self.set_multiplier_arrays(start_multipliers)
+            return StepReport(False, k, residual, message)
+
+        for k in range(1, s.max_iterations + 1):
+            b = self.system.assemble_vector()
+            try:
+                self.system.solve(self.solver, target=self.solution, b=b)
+            except RuntimeError as exc:
+                return fail(k, str(exc))
+            new = self.velocity_values()
+            if not np.all(np.isfinite(new)):
+                return fail(k, "non-finite velocity")
+            before = np.concatenate([a[:n] for a, n in zip(self._state(), self._owned_sizes)])
+            gamma_old, slip_old, side_old = (self.gamma.x.array.copy(), self.slip.x.array.copy(),
+                                             self.side_slip.x.array.copy())
+            u_nodes = self.solution.x.array[self.velocity_dofs].reshape(-1, 2)
+            self._local_yield()
+            if self.has_friction:
+                self._local_friction(u_nodes)
+            if self.has_side_walls:
+                self._local_side_walls(u_nodes)
+
+            change = self.rms(new - self.velocity_values(self.iterate))
+            scale = self.rms(new)
+            checks = self._checks(u_nodes, gamma_old, slip_old, side_old, scale)
+            # distance to the limit, not the bare increment: the iteration converges
+            # linearly, slowly for large r, so with contraction ρ it is about Δ ρ/(1 − ρ)
+            rho = min(change / previous, CONTRACTION_CAP) if previous > 0 else 0.0
+            previous = change
+            checks.append((change * max(1.0, rho / (1.0 - rho)), s.rtol * scale + s.atol))
+            residual = max(value / tol for value, tol in checks) * s.rtol
+            self.iterate.x.array[:] = self.solution.x.array
+            if all(value <= tol for value, tol in checks):
+                # inner problem converged: update κ, η, Coulomb limits; done if they held
+                if self.pressure_known:
+                    return StepReport(True, k, residual)
+                self.coefficient_updates += 1
+                if self._update_coefficients() <= s.rtol:
+                    self.pressure_known = True
+                    return StepReport(True, k, residual)
+                self.anderson.reset()
+            if s.anderson_depth > 0:
+                after = np.concatenate([a[:n] for a, n in zip(self._state(), self._owned_sizes)])
+                mixed = self.anderson.update(before, after)
+                offset = 0
+                for func, n in zip(self._multipliers(), self._owned_sizes):
+                    func.x.array[:n] = mixed[offset:offset + n]
+                    offset += n
+            for func in self._multipliers():
+                func.x.scatter_forward()
+        return fail(s.max_iterations, "iteration cap reached")
