@@ -71,7 +71,7 @@ def augmented_settings(cfg: Config) -> AugmentedSettings:
     if n.augmentation_friction is not None:
         r_f = n.augmentation_friction
     return AugmentedSettings(r, r_f, r_w, n.nonlinear_rtol, n.nonlinear_atol, n.augmented_max_iterations,
-                             n.epsilon, n.linear_solver, n.anderson_depth)
+                             n.epsilon, n.epsilon_friction, n.linear_solver, n.anderson_depth)
 
 
 def make_flow(tagged: TaggedMesh, cfg: Config):
