@@ -40,6 +40,18 @@ def read_series(run_dir: Path) -> list[tuple[float, np.ndarray, np.ndarray]]:
     return sorted(series, key=lambda s: s[0])
 
 
+def read_cell_field(run_dir: Path, name: str) -> list[tuple[float, np.ndarray]]:
+    """(t, cell values) of the cell attribute ``name`` for every time that has it."""
+    root = ET.parse(run_dir / "solution.xdmf").getroot()
+    out = []
+    for grid in root.iter("Grid"):
+        time = grid.find("Time")
+        for attr in grid.iter("Attribute"):
+            if attr.get("Name") == name and attr.get("Center") == "Cell" and time is not None:
+                out.append((float(time.get("Value")), _dataset(run_dir, attr.find("DataItem").text).ravel()))
+    return sorted(out, key=lambda s: s[0])
+
+
 def free_surface(x: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """Ordered points of the free surface (boundary edges not on the bed or the wall)."""
     edges = np.sort(np.concatenate([cells[:, [0, 1]], cells[:, [1, 2]], cells[:, [2, 0]]]), axis=1)
@@ -84,7 +96,11 @@ def plot_run(run_dir: Path, times: list[float] | None = None) -> Path:
     else:
         picks = sorted(set(np.linspace(0, len(series) - 1, min(6, len(series))).round().astype(int)))
 
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 8), gridspec_kw={"height_ratios": [3, 2]})
+    rigid = read_cell_field(run_dir, "rigid")   # augmented Lagrangian runs only
+    if rigid:
+        fig, (ax1, ax3, ax2) = plt.subplots(3, 1, figsize=(8, 11), gridspec_kw={"height_ratios": [3, 2, 2]})
+    else:
+        fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 8), gridspec_kw={"height_ratios": [3, 2]})
     cmap = plt.get_cmap("viridis")
     for j, i in enumerate(picks):
         t, x, cells = series[i]
@@ -96,6 +112,19 @@ def plot_run(run_dir: Path, times: list[float] | None = None) -> Path:
     ax1.set_aspect("equal")
     ax1.legend(fontsize=8)
     ax1.set_title(f"Free surface — {run_dir.name}")
+
+    if rigid:  # exact rigid zone (γ̇ = 0) at the output time nearest to a third of the run
+        k = int(np.argmin(np.abs(np.array([r[0] for r in rigid]) - available[-1] / 3)))
+        t_r, values = rigid[k]
+        i = int(np.argmin(np.abs(available - t_r)))
+        _, x, cells = series[i]
+        if len(values) == len(cells):
+            ax3.tripcolor(x[:, 0], x[:, 1], cells, facecolors=values, cmap="Greys", vmin=-0.3, vmax=1.3,
+                          edgecolors="none")
+            ax3.set_aspect("equal")
+            ax3.set_title(f"t = {t_r:.3f} s: rigid zone (dark, γ̇ = 0 exactly) and flowing zone (light)")
+            ax3.set_xlabel("x [m]")
+            ax3.set_ylabel("y [m]")
 
     diag_path = run_dir / "diagnostics.csv"
     if diag_path.exists():
