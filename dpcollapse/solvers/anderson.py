@@ -12,43 +12,52 @@ pressures in Pa do not dominate velocities in m/s); the combination is applied t
 
 from __future__ import annotations
 
-from collections import deque
-
 import numpy as np
 from mpi4py import MPI
 
 
 class Anderson:
-    """History of the last ``depth`` iterates of a fixed point."""
+    """History of the last ``depth`` iterates of a fixed point.
+
+    The differences are kept in preallocated (depth, n) ring buffers, the residual ones
+    pre-scaled by √w, so one update costs two small matrix products (BLAS), no copies of
+    the history."""
 
     def __init__(self, comm: MPI.Comm, depth: int, owned: int, weights: np.ndarray | None = None,
                  regularization: float = 1e-12):
         self.comm, self.depth, self.owned = comm, depth, owned
         self.weights = weights
+        self._scale = np.sqrt(weights) if weights is not None else None
         self.regularization = regularization
-        self._f: deque = deque(maxlen=depth + 1)
-        self._g: deque = deque(maxlen=depth + 1)
+        self._dF = np.empty((depth, owned)) if depth > 0 else None   # √w (f_{i+1} − f_i)
+        self._dG = np.empty((depth, owned)) if depth > 0 else None   # G(x_{i+1}) − G(x_i)
+        self.reset()
 
     def reset(self) -> None:
-        self._f.clear()
-        self._g.clear()
-
-    def _dot(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        w = self.weights
-        local = (a * w) @ b.T if w is not None else a @ b.T
-        return self.comm.allreduce(local, op=MPI.SUM)
+        self._count = 0          # differences stored (≤ depth)
+        self._next = 0           # ring position of the next difference
+        self._f = None           # last scaled residual and image
+        self._g = None
 
     def update(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
         """Given the current iterate x_k and its image G(x_k) (owned entries), return x_{k+1}."""
-        f = g - x
-        self._f.append(f.copy())
-        self._g.append(g.copy())
-        if self.depth == 0 or len(self._f) < 2:
+        if self.depth == 0:
             return g.copy()
-        F = np.diff(np.array(self._f), axis=0)          # (m, n)
-        G = np.diff(np.array(self._g), axis=0)
-        A = self._dot(F, F)
-        rhs = self._dot(F, f[None, :])[:, 0]
+        f = g - x
+        if self._scale is not None:
+            f *= self._scale
+        if self._f is None:
+            self._f, self._g = f, g.copy()
+            return g.copy()
+        i = self._next
+        np.subtract(f, self._f, out=self._dF[i])
+        np.subtract(g, self._g, out=self._dG[i])
+        self._f, self._g = f, g.copy()
+        self._next = (i + 1) % self.depth
+        self._count = min(self._count + 1, self.depth)
+        F, G = self._dF[:self._count], self._dG[:self._count]
+        A = self.comm.allreduce(F @ F.T, op=MPI.SUM)
+        rhs = self.comm.allreduce(F @ f, op=MPI.SUM)
         scale = np.trace(A) / len(A) if np.trace(A) > 0 else 1.0
         gamma = np.linalg.solve(A + self.regularization * scale * np.eye(len(A)), rhs)
         return g - gamma @ G

@@ -94,11 +94,16 @@ class AugmentedLagrangianFlow(RegularizedFlow):
         self.pressure_known = False
         nT = self.T.dofmap.index_map.size_local * 4
         nV = self.V.dofmap.index_map.size_local * 2
-        self._owned_sizes = (nT, nT, nV, nV, nV, nV)
-        # the iteration's natural norm: ‖σ‖²/r + r‖γ̇‖² (Pa²/(Pa s) either way), same for walls
+        # Anderson mixes the active multipliers (owned entries), in the iteration's natural
+        # norm ‖σ‖²/r + r‖γ̇‖² (Pa²/(Pa s) either way), the same for the walls
         r, r_f, r_w = settings.augmentation, settings.augmentation_friction, settings.augmentation_side
-        scales = (1.0 / r, r, 1.0 / r_f, r_f, 1.0 / r_w, r_w)
-        weights = np.concatenate([np.full(n, w) for n, w in zip(self._owned_sizes, scales)])
+        active = [(self.sigma, nT, 1.0 / r), (self.gamma, nT, r)]
+        if self.has_friction:
+            active += [(self.traction, nV, 1.0 / r_f), (self.slip, nV, r_f)]
+        if self.has_side_walls:
+            active += [(self.side_traction, nV, 1.0 / r_w), (self.side_slip, nV, r_w)]
+        self._mixed = [(f, n) for f, n, _ in active]
+        weights = np.concatenate([np.full(n, w) for _, n, w in active])
         self.anderson = Anderson(self.comm, settings.anderson_depth, len(weights), weights)
 
     # ------------------------------------------------------------------ forms
@@ -390,8 +395,7 @@ class AugmentedLagrangianFlow(RegularizedFlow):
     def _dg_norm(self, values: np.ndarray) -> float:
         """RMS over Ω of a DG tensor field given by its dof array, with the lumped (nodal)
         quadrature ∫_K |f|² ≈ |K| mean_i |f_i|² (an equivalent norm; exact for constants)."""
-        v = values.reshape(-1, 4)[self._cell_blocks]          # (owned cells, nodes, 4)
-        local = float(np.sum(self._areas * np.mean(np.sum(v * v, axis=2), axis=1)))
+        local = float(np.dot(self._dof_weights, values * values))
         return math.sqrt(max(self.comm.allreduce(local, op=MPI.SUM), 0.0) / self._area_total)
 
     def _wall_norm(self, vectors: np.ndarray) -> float:
@@ -410,7 +414,10 @@ class AugmentedLagrangianFlow(RegularizedFlow):
     def _prepare_norms(self) -> None:
         """Cell areas, the owned cells' DG1 blocks and the wall nodes' lumped weights."""
         self._areas = self._cell_areas()
-        self._cell_blocks = compat.cell_dofs(self.T)[:len(self._areas)]
+        blocks = compat.cell_dofs(self.T)[:len(self._areas)]        # (owned cells, nodes)
+        weights = np.zeros(self.sigma.x.array.size // 4)
+        weights[blocks] = (self._areas / blocks.shape[1])[:, None]
+        self._dof_weights = np.repeat(weights, 4)                     # per tensor component
         self._area_total = self.comm.allreduce(float(self._areas.sum()), op=MPI.SUM)
         if self.has_friction:
             self._assemble_nodal(self._weight_form, self._weight)
@@ -493,7 +500,7 @@ class AugmentedLagrangianFlow(RegularizedFlow):
             new = self.velocity_values()
             if not np.all(np.isfinite(new)):
                 return fail(k, "non-finite velocity")
-            before = np.concatenate([a[:n] for a, n in zip(self._state(), self._owned_sizes)])
+            before = np.concatenate([f.x.array[:n] for f, n in self._mixed]) if s.anderson_depth else None
             gamma_old, slip_old, side_old = (self.gamma.x.array.copy(), self.slip.x.array.copy(),
                                              self.side_slip.x.array.copy())
             u_nodes = self.solution.x.array[self.velocity_dofs].reshape(-1, 2)
@@ -523,12 +530,12 @@ class AugmentedLagrangianFlow(RegularizedFlow):
                     return StepReport(True, start_iterations + k, residual)
                 self.anderson.reset()
             if s.anderson_depth > 0:
-                after = np.concatenate([a[:n] for a, n in zip(self._state(), self._owned_sizes)])
+                after = np.concatenate([f.x.array[:n] for f, n in self._mixed])
                 mixed = self.anderson.update(before, after)
                 offset = 0
-                for func, n in zip(self._multipliers(), self._owned_sizes):
+                for func, n in self._mixed:
                     func.x.array[:n] = mixed[offset:offset + n]
                     offset += n
-            for func in self._multipliers():
+            for func, _ in self._mixed:
                 func.x.scatter_forward()
         return fail(s.max_iterations, "iteration cap reached")

@@ -31,6 +31,7 @@ from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.config import Config, load_config, with_overrides
+from dpcollapse.errors import ConvergenceError, MeshError
 from dpcollapse.geometry.mesher import SURFACE
 from dpcollapse.simulation import Simulation
 
@@ -105,7 +106,7 @@ def _run(sim: Simulation, observers=()) -> tuple[dict, float]:
     t0 = time.perf_counter()
     try:
         summary = sim.run(observers=list(observers))
-    except Exception as exc:  # a failing run is a result too (status "failed")
+    except (ConvergenceError, MeshError) as exc:  # a failing run is a result too
         summary = {"status": f"failed: {exc}", "steps": sim.state["step"],
                    "flow_factorizations": 0}
     return summary, time.perf_counter() - t0
