@@ -261,6 +261,9 @@ class NumericsConfig(_Section):
         5, "", "Anderson acceleration of the fixed point: history length m (0 = plain Picard)",
         ge=0, le=50)
     linear_solver: Literal["mumps", "superlu_dist"] = _f("mumps", "", "Direct LU solver")
+    quadrature_degree: Count | None = _f(
+        4, "", "Quadrature degree of the nonlinear terms (secant viscosity, convection, "
+        "friction); null: UFL's estimate (8 in cells, 17 on friction facets)", ge=1, le=20)
     mesh_velocity_penalty: Number = _f(
         1.0e3, "", "Penalty xi-hat on (w-u).n on the free surface (dimensionless, applied as xi-hat/h)", gt=0
     )
