@@ -84,6 +84,14 @@ def test_quadrature_degree_key():
     assert load_config(None, ["numerics.quadrature_degree=6"]).numerics.quadrature_degree == 6
 
 
+def test_time_step_keys():
+    """dt_max < dt only matters when adaptive."""
+    cfg = load_config(None, ["time.dt=1e-2", "time.dt_max=5e-3", "time.adaptive=false"])
+    assert cfg.time.dt_max == 5e-3 and not cfg.time.adaptive
+    cfg = load_config(None, ["time.adaptive=true", "time.cfl=0.25"])
+    assert cfg.time.adaptive and cfg.time.cfl == 0.25
+
+
 def test_gravity_on_a_slope():
     cfg = load_config(None, ["geometry.bed_angle=30"])
     assert cfg.gravity_vector == pytest.approx((9.81 * 0.5, -9.81 * math.cos(math.radians(30))))
@@ -121,6 +129,12 @@ def test_gravity_on_a_slope():
          "numerics.quadrature_degree = 4.5: must be an integer"),
         ("numerics:\n  quadrature_degree: true\n",
          "numerics.quadrature_degree = true: must be an integer"),
+        ("time:\n  adaptive: 3\n", "time.adaptive = 3: must be true or false"),
+        ("time:\n  cfl: 0\n", "time.cfl = 0: must be in (0, 10]"),
+        ("time:\n  cfl: 11\n", "time.cfl = 11: must be in (0, 10]"),
+        ("time:\n  dt_max: -1.0\n", "time.dt_max = -1.0: must be > 0 (s)"),
+        ("time:\n  adaptive: true\n  dt: 1.0e-2\n  dt_max: 5.0e-3\n",
+         "time.dt_max = 0.005: must be >= time.dt = 0.01 (s) with time.adaptive = true"),
         ("geometry:\n  mesh_size: 0.5\n",
          "geometry.mesh_size = 0.5: larger than the mass "
          "(must be < 0.206 m = min(height, top length))"),
