@@ -2,7 +2,7 @@
 
 Fixed cases (rigid collapse at two mesh sizes, plug flow, Bagnold), each run through the
 ordinary :class:`~dpcollapse.simulation.Simulation` with the solver left untouched. For each
-case the table reports: steps, simulated time, wall time (the time loop, initial output
+case the table reports: steps, simulated time, the smallest/mean/largest Δt, wall time (the time loop, initial output
 included: ``Simulation.timings["total"]``) and wall time per simulated second, mean/max
 nonlinear iterations per step, linear solves per step (flow + mesh velocity), the split of
 the wall time between assembly, LU factorization, LU solve (forward/back substitution),
@@ -112,6 +112,7 @@ COLUMNS = (
     "kind", "case", "np", "mesh_size", "dofs", "status", "steps", "sim_time", "wall_s",
     "setup_s", "wall_per_sim_s", "time_per_step_s", "mean_iterations", "max_iterations",
     "linear_solves_per_step", "flow_solves_per_step", "ale_solves_per_step", "remeshes",
+    "dt_min_s", "dt_mean_s", "dt_max_s",
     "pct_assembly", "pct_factorization", "pct_solve", "pct_picard_other", "pct_mesh_motion",
     "pct_remesh", "pct_output", "pct_other", "peak_mb", "peak_reset", "linear_solve_s",
     "overhead_ratio", "speedup", "growth_exponent", "linear_solve_exponent",
@@ -360,6 +361,9 @@ def run_case(name: str, cfg, run_dir: Path, comm, kind: str = "case",
         "flow_solves_per_step": flow_solves * per_step,
         "ale_solves_per_step": sim.ale_solves * per_step,
         "remeshes": int(sim.state.get("remeshes", 0)),
+        "dt_min_s": min(sim.step_sizes, default=math.nan),
+        "dt_mean_s": t_sim * per_step if steps else math.nan,
+        "dt_max_s": max(sim.step_sizes, default=math.nan),
         **{f"pct_{p}": pct[p] for p in PARTS},
         "peak_mb": peak, "peak_reset": bool(peak_reset), "linear_solve_s": t_lin,
         "overhead_ratio": wall / (steps * t_lin) if steps and t_lin > 0 else math.nan,
@@ -508,7 +512,7 @@ def _fmt(value, spec: str) -> str:
 
 
 def format_table(result: BenchResult) -> str:
-    head = (f"{'case':<10} {'np':>2} {'dofs':>7} {'steps':>5} {'t_sim':>6} {'wall':>7} "
+    head = (f"{'case':<10} {'np':>2} {'dofs':>7} {'steps':>5} {'t_sim':>6} {'dt ms':>5} {'wall':>7} "
             f"{'wall/s':>7} "
             f"{'it':>5} {'max':>4} {'lin/st':>6} {'asm%':>5} {'fact%':>5} {'sol%':>5} "
             f"{'pic%':>5} {'ale%':>5} {'rem%':>5} {'out%':>5} {'oth%':>5} {'MB':>6} "
@@ -517,7 +521,7 @@ def format_table(result: BenchResult) -> str:
     for r in result.rows:
         lines.append(
             f"{r['case']:<10} {r['np']:>2} {r['dofs']:>7} {r['steps']:>5} {r['sim_time']:>6.3f} "
-            f"{r['wall_s']:>7.1f} {_fmt(r['wall_per_sim_s'], '7.1f'):>7} "
+            f"{_fmt(1e3 * r['dt_mean_s'], '5.2f'):>5} {r['wall_s']:>7.1f} {_fmt(r['wall_per_sim_s'], '7.1f'):>7} "
             f"{_fmt(r['mean_iterations'], '5.2f'):>5} {r['max_iterations']:>4} "
             f"{_fmt(r['linear_solves_per_step'], '6.2f'):>6} "
             + " ".join(f"{r['pct_' + p]:>5.1f}" for p in PARTS)
@@ -525,7 +529,7 @@ def format_table(result: BenchResult) -> str:
             f"{_fmt(r['speedup'], '7.2f'):>7}")
         if not str(r["status"]).startswith(("at_rest", "end_time")):
             lines[-1] += f"  [{r['status']}]"
-    lines.append("wall: time loop [s]; wall/s: per simulated second; it/max: nonlinear iterations "
+    lines.append("dt ms: mean time step [ms]; wall: time loop [s]; wall/s: per simulated second; it/max: nonlinear iterations "
                  "per step; lin/st: linear solves per step (flow + mesh velocity); %: share of the "
                  "wall time (asm assembly, fact LU factorization, sol LU solve, pic rest of the "
                  "Picard loop, ale mesh motion, rem remesh, out output, oth other); MB: peak RSS; "

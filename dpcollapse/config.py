@@ -270,6 +270,9 @@ class NumericsConfig(_Section):
         5, "", "Anderson acceleration of the fixed point: history length m (0 = plain Picard)",
         ge=0, le=50)
     linear_solver: Literal["mumps", "superlu_dist"] = _f("mumps", "", "Direct LU solver")
+    quadrature_degree: Count | None = _f(
+        4, "", "Quadrature degree of the nonlinear terms (secant viscosity, convection, "
+        "friction); null: UFL's estimate (8 in cells, 17 on friction facets)", ge=1, le=20)
     mesh_velocity_penalty: Number = _f(
         1.0e3, "", "Penalty xi-hat on (w-u).n on the free surface (dimensionless, applied as xi-hat/h)", gt=0
     )
@@ -290,8 +293,15 @@ class InitialConfig(_Section):
 class TimeConfig(_Section):
     """Time stepping, output cadence and the at-rest stopping rule."""
 
-    dt: Number = _f(1.0e-3, "s", "Time step", gt=0)
+    dt: Number = _f(1.0e-3, "s", "Time step (adaptive: the first step)", gt=0)
     dt_min: Number = _f(1.0e-6, "s", "Smallest time step when halving on failure", gt=0)
+    adaptive: bool = Field(
+        False, strict=True, description="Adapt the step: x1.2 after a fixed point of <= 3 "
+        "iterations, x0.7 after > 12, within dt_max, the Courant bound and the mesh-motion limit")
+    cfl: Number = _f(
+        0.5, "", "Courant bound of the adaptive step: dt <= cfl min_K h_K/max_K |u| "
+        "(h_K shortest edge of cell K, |u| at its vertices)", gt=0, le=10)
+    dt_max: Number = _f(5.0e-3, "s", "Largest time step (adaptive)", gt=0)
     end_time: Number = _f(2.0, "s", "Simulated time cap", gt=0)
     output_every: Count = _f(20, "", "Write XDMF output every N steps", ge=1)
     checkpoint_every: Count = _f(50, "", "Write a restart checkpoint every N steps", ge=1)
@@ -309,6 +319,10 @@ class TimeConfig(_Section):
             raise ConfigError(
                 f"time.dt_min = {_fmt(self.dt_min)}: must be <= time.dt = {_fmt(self.dt)} (s)"
             )
+        if self.adaptive and self.dt_max < self.dt:
+            raise ConfigError(
+                f"time.dt_max = {_fmt(self.dt_max)}: must be >= time.dt = {_fmt(self.dt)} (s) "
+                f"with time.adaptive = true")
         return self
 
 

@@ -4,10 +4,16 @@ Each step n → n+1 (seed 000's update algorithm):
 1. if the mesh is too distorted (smallest angle below ``numerics.remesh_min_angle``),
    remesh from the current boundary and carry uⁿ, pⁿ across;
 2. compute the mesh velocity wⁿ from uⁿ; limit Δt so that no cell loses more than half
-   its area and no free-surface node more than half its height above the bed;
+   its area and no free-surface node more than half its height above the bed; with
+   ``time.adaptive`` also Δt ≤ cfl·min_K h_K/max_K |uⁿ| (the Courant bound);
 3. move the nodes by Δt·wⁿ, solve the Picard fixed point for (u^{n+1}, p^{n+1});
    if it fails, undo the move and halve Δt down to ``time.dt_min``;
 4. record diagnostics; write XDMF/checkpoint every N steps; stop at rest or end time.
+
+Step size: fixed ``time.dt`` (a step cut by a failure or the mesh motion recovers ×1.5 per
+step), or with ``time.adaptive`` the next target Δt ← ×STEP_GROWTH after a fixed point of
+≤ FEW_ITERATIONS iterations, ×STEP_SHRINK after > MANY_ITERATIONS, else unchanged, within
+[dt_min, dt_max]; each step then takes min(target, Courant bound, mesh-motion limit).
 """
 
 from __future__ import annotations
@@ -20,10 +26,12 @@ import time
 from pathlib import Path
 
 import numpy as np
+from dolfinx import fem
 from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.ale.motion import quality, retag_landed
+from dpcollapse.ale.quality import courant_rate
 from dpcollapse.ale.remesh import (load_multipliers, load_state, remesh_domain, snapshot,
                                   snapshot_multipliers)
 from dpcollapse.config import Config, config_to_dict, save_config
@@ -46,6 +54,15 @@ REMESH_COOLDOWN = 5
 #: Energy guard (moving domains): the kinetic energy may exceed the work of gravity by at
 #: most this fraction before the run is declared numerically unstable.
 ENERGY_TOLERANCE = 0.05
+#: Adaptive stepping: growth factor of the step after an easy fixed point, ...
+STEP_GROWTH = 1.2
+#: ... i.e. one of at most this many iterations; ...
+FEW_ITERATIONS = 3
+#: ... and the shrink factor after a fixed point of more than this many iterations.
+STEP_SHRINK = 0.7
+MANY_ITERATIONS = 12
+#: Augmented Lagrangian: both iteration thresholds are multiplied by this.
+AL_ITERATION_SCALE = 5
 
 
 class Progress:
@@ -131,9 +148,11 @@ class Simulation:
         self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg))
         self.timings = {"solve": 0.0, "mesh_motion": 0.0, "remesh": 0.0, "output": 0.0}
         self.iteration_counts: list[int] = []
+        self.step_sizes: list[float] = []
         self.ale_solves = 0
         self.factorizations = 0  # LU factorizations of the flow system (retired meshes)
         self.dt_limit = math.inf
+        self.courant = 0.0  # Courant number Δt·max_K |uⁿ|/h_K of the last step
         self.wall0 = time.perf_counter()
         if not resume:
             self._output()
@@ -228,6 +247,33 @@ class Simulation:
             return f"min angle {q['min_angle']:.1f}°"
         return None
 
+    def _courant_rate(self) -> float:
+        """max_K max_{vertices of K} |uⁿ|/h_K on the current mesh (global) [1/s]: uⁿ
+        interpolated to P1 (its vertex values), h_K the shortest edge of K."""
+        disc = self.disc
+        cached = getattr(disc, "_courant_p1", None)
+        if cached is None:
+            V1 = disc.flow.Vw
+            cached = disc._courant_p1 = (fem.Function(V1), compat.cell_dofs(V1))
+        p1, dofs = cached
+        p1.interpolate(disc.flow.u_old)
+        n = compat.num_owned_cells(disc.mesh)
+        tri = disc.mesh.geometry.x[:, :2][compat.geometry_dofmap(disc.mesh)[:n]]
+        vel = p1.x.array.reshape(-1, 2)[dofs[:n]]
+        return self.comm.allreduce(courant_rate(tri, vel), op=MPI.MAX)
+
+    def _next_target(self, dt: float, iterations: int) -> float:
+        """Adaptive target of the next step from this step's Δt and fixed-point iterations."""
+        t = self.cfg.time
+        # an augmented Lagrangian iteration is one back-substitution, not a factorization:
+        # measured 3 ms against 15 ms per Picard iteration on the 2 cm collapse
+        scale = AL_ITERATION_SCALE if self.cfg.numerics.method == "augmented_lagrangian" else 1
+        if iterations <= FEW_ITERATIONS * scale:
+            dt *= STEP_GROWTH
+        elif iterations > MANY_ITERATIONS * scale:
+            dt *= STEP_SHRINK
+        return min(max(dt, t.dt_min), t.dt_max)
+
     def _step(self) -> tuple[float, int, float]:
         """Advance one step; returns (dt, iterations, residual)."""
         cfg, st = self.cfg, self.state
@@ -235,6 +281,9 @@ class Simulation:
         if reason:
             self._remesh(reason)
         dt = min(st["dt_target"], cfg.time.end_time - st["t"])
+        rate = self._courant_rate()
+        if cfg.time.adaptive and rate > 0:
+            dt = min(dt, max(cfg.time.cfl / rate, cfg.time.dt_min))
         motion = self.disc.motion
         self.dt_limit = math.inf
         if motion is not None:
@@ -287,8 +336,12 @@ class Simulation:
                 motion.compute()
                 self.ale_solves += 1
         self.disc.flow.accept_step()
+        self.courant = dt * rate
         st["t"] += dt
         st["step"] += 1
+        if cfg.time.adaptive:
+            st["dt_target"] = self._next_target(dt, report.iterations)
+            return dt, spent, report.residual
         st["dt_target"] = min(cfg.time.dt, 2.0 * dt) if dt < st["dt_target"] else st["dt_target"]
         if st["dt_target"] < cfg.time.dt:
             st["dt_target"] = min(cfg.time.dt, 1.5 * st["dt_target"])
@@ -306,9 +359,11 @@ class Simulation:
             while st["t"] < cfg.time.end_time - 1e-12:
                 dt, iterations, residual = self._step()
                 self.iteration_counts.append(iterations)
+                self.step_sizes.append(dt)
                 m = self.disc.measures()
                 self._check_energy(m)
                 row = {"step": st["step"], "t": st["t"], "dt": dt, "dt_limit": self.dt_limit,
+                       "courant": self.courant,
                        "iterations": iterations,
                        "residual": residual, "remeshes": st["remeshes"],
                        "wall_time": time.perf_counter() - self.wall0, **m}

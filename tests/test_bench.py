@@ -52,6 +52,10 @@ def test_quick_csv_rows_and_columns(quick):
         # every Picard iteration is one flow solve (the instrumentation missed none)
         assert float(r["flow_solves_per_step"]) == pytest.approx(float(r["mean_iterations"]))
         assert float(r["linear_solves_per_step"]) >= float(r["flow_solves_per_step"])
+        # Δt statistics: mean = simulated time / steps, between the smallest and largest step
+        dt_min, dt_mean, dt_max = (float(r[k]) for k in ("dt_min_s", "dt_mean_s", "dt_max_s"))
+        assert dt_mean == pytest.approx(float(r["sim_time"]) / int(r["steps"]), rel=1e-5)
+        assert 0 < dt_min <= dt_mean * (1 + 1e-5) and dt_mean <= dt_max * (1 + 1e-5)
 
 
 def test_quick_percentages_and_overhead(quick):

@@ -78,6 +78,20 @@ def test_stable_yaml():
     assert cfg.time.end_time == 0.1 and cfg.geometry.top_length > cfg.geometry.mesh_size
 
 
+def test_quadrature_degree_key():
+    """null (UFL's estimate) and integers in range are accepted."""
+    assert load_config(None, ["numerics.quadrature_degree=null"]).numerics.quadrature_degree is None
+    assert load_config(None, ["numerics.quadrature_degree=6"]).numerics.quadrature_degree == 6
+
+
+def test_time_step_keys():
+    """dt_max < dt only matters when adaptive."""
+    cfg = load_config(None, ["time.dt=1e-2", "time.dt_max=5e-3", "time.adaptive=false"])
+    assert cfg.time.dt_max == 5e-3 and not cfg.time.adaptive
+    cfg = load_config(None, ["time.adaptive=true", "time.cfl=0.25"])
+    assert cfg.time.adaptive and cfg.time.cfl == 0.25
+
+
 def test_gravity_on_a_slope():
     cfg = load_config(None, ["geometry.bed_angle=30"])
     assert cfg.gravity_vector == pytest.approx((9.81 * 0.5, -9.81 * math.cos(math.radians(30))))
@@ -107,6 +121,20 @@ def test_gravity_on_a_slope():
         ("time:\n  dt: .inf\n", "time.dt = inf: must be a finite number"),
         ("time:\n  dt: 1.0e-3\n  dt_min: 1.0e-2\n",
          "time.dt_min = 0.01: must be <= time.dt = 0.001 (s)"),
+        ("numerics:\n  quadrature_degree: 0\n",
+         "numerics.quadrature_degree = 0: must be in [1, 20]"),
+        ("numerics:\n  quadrature_degree: 21\n",
+         "numerics.quadrature_degree = 21: must be in [1, 20]"),
+        ("numerics:\n  quadrature_degree: 4.5\n",
+         "numerics.quadrature_degree = 4.5: must be an integer"),
+        ("numerics:\n  quadrature_degree: true\n",
+         "numerics.quadrature_degree = true: must be an integer"),
+        ("time:\n  adaptive: 3\n", "time.adaptive = 3: must be true or false"),
+        ("time:\n  cfl: 0\n", "time.cfl = 0: must be in (0, 10]"),
+        ("time:\n  cfl: 11\n", "time.cfl = 11: must be in (0, 10]"),
+        ("time:\n  dt_max: -1.0\n", "time.dt_max = -1.0: must be > 0 (s)"),
+        ("time:\n  adaptive: true\n  dt: 1.0e-2\n  dt_max: 5.0e-3\n",
+         "time.dt_max = 0.005: must be >= time.dt = 0.01 (s) with time.adaptive = true"),
         ("geometry:\n  mesh_size: 0.5\n",
          "geometry.mesh_size = 0.5: larger than the mass "
          "(must be < 0.206 m = min(height, top length))"),
@@ -210,3 +238,25 @@ def test_with_overrides():
     assert new.time.dt == 2e-3 and cfg.time.dt == 1e-3
     with pytest.raises(ConfigError, match="time.dt = 0: must be > 0"):
         with_overrides(cfg, ["time.dt=0"])
+
+
+def test_readme_table_lists_every_key_with_its_default():
+    """The configuration table in README.md has one row per model field, default as str()
+    (null for None), and the field's description (a key added without its row fails here)."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    section_text = text.split("## Configuration reference", 1)[1].split("\n## ", 1)[0]
+    rows = {}
+    for line in section_text.splitlines():
+        if line.startswith("| `") and "." in line.split("`")[1]:
+            cells = [c.strip() for c in line.strip("|").split(" | ")]
+            rows[cells[0].strip("`")] = cells
+    keys = set()
+    for section, sfield in Config.model_fields.items():
+        for name, field in sfield.annotation.model_fields.items():
+            key = f"{section}.{name}"
+            keys.add(key)
+            assert key in rows, f"README.md has no row for {key}"
+            default = "null" if field.default is None else str(field.default)
+            assert rows[key][1] == default, (key, rows[key][1], default)
+            assert rows[key][3].replace("\\|", "|") == field.description, key
+    assert set(rows) == keys, set(rows) - keys

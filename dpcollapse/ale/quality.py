@@ -53,3 +53,16 @@ def max_safe_step(tri: np.ndarray, vel: np.ndarray, shrink: float = 0.5) -> floa
     r2 = np.where((disc >= 0) & (r2 > 0), r2, np.inf)
     tau = np.where(lin, t_lin, np.minimum(r1, r2))
     return float(np.min(tau)) if len(tau) else np.inf
+
+
+def courant_rate(tri: np.ndarray, vel: np.ndarray) -> float:
+    """max_K max_{vertices of K} |u| / h_K [1/s], h_K the shortest edge of triangle K.
+
+    A step Δt has Courant number Δt·rate: the largest distance a vertex velocity carries
+    material in one step, in units of its cell's shortest edge (0 for no cells or u = 0).
+    """
+    if len(tri) == 0:
+        return 0.0
+    edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).min(axis=1)
+    speed = np.linalg.norm(vel, axis=2).max(axis=1)
+    return float(np.max(speed / edges))

@@ -33,7 +33,7 @@ def coulomb_friction(mu, normal_stress, u_iter, eps_f, u, v, n, ds):
     return coefficient * ufl.inner(tangential(u, n), tangential(v, n)) * ds
 
 
-def side_wall_friction(width, mu_w, p_iter, u_iter, eps_f, u, v):
+def side_wall_friction(width, mu_w, p_iter, u_iter, eps_f, u, v, dx=ufl.dx):
     """Width-averaged friction of the two side walls of a channel of width w (seed 002)::
 
         (2/w) ∫_Ω μ_w [pᵏ]_+ u·v / √(|uᵏ|² + ε_f²) dx
@@ -41,4 +41,4 @@ def side_wall_friction(width, mu_w, p_iter, u_iter, eps_f, u, v):
     (the walls' normal stress is σ_zz = −p; the regularization is that of the bed friction).
     """
     coefficient = 2.0 / width * mu_w * positive_part(p_iter) / ufl.sqrt(ufl.inner(u_iter, u_iter) + eps_f**2)
-    return coefficient * ufl.inner(u, v) * ufl.dx
+    return coefficient * ufl.inner(u, v) * dx

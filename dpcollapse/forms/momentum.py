@@ -11,6 +11,8 @@ test pair (v, q) in V × M::
   = ∫ ρ f · v                                  "gravity", f = g (sin θ, −cos θ)
 
 Each term is a pure function returning a UFL form so it can be assembled and tested alone.
+The cell measure ``dx`` is an argument (default ``ufl.dx``) so that the solver can fix the
+quadrature degree of the nonlinear terms (``numerics.quadrature_degree``).
 """
 
 from __future__ import annotations
@@ -20,36 +22,36 @@ import ufl
 from dpcollapse.rheology.drucker_prager import strain_rate
 
 
-def inertia(rho, dt, u, v):
+def inertia(rho, dt, u, v, dx=ufl.dx):
     """∫ ρ u/Δt · v dx: the implicit half of ∫ ρ (u − uⁿ)/Δt · v (bilinear)."""
-    return rho / dt * ufl.inner(u, v) * ufl.dx
+    return rho / dt * ufl.inner(u, v) * dx
 
 
-def previous_velocity(rho, dt, u_old, v):
+def previous_velocity(rho, dt, u_old, v, dx=ufl.dx):
     """∫ ρ uⁿ/Δt · v dx: the explicit half of the time derivative (right-hand side)."""
-    return rho / dt * ufl.inner(u_old, v) * ufl.dx
+    return rho / dt * ufl.inner(u_old, v) * dx
 
 
-def convection(rho, u_iter, w, u, v):
+def convection(rho, u_iter, w, u, v, dx=ufl.dx):
     """∫ ρ ((uᵏ − w)·∇) u · v dx, the ALE convective derivative linearized at uᵏ."""
-    return rho * ufl.inner(ufl.grad(u) * (u_iter - w), v) * ufl.dx
+    return rho * ufl.inner(ufl.grad(u) * (u_iter - w), v) * dx
 
 
-def viscoplastic(secant_viscosity, u, v):
+def viscoplastic(secant_viscosity, u, v, dx=ufl.dx):
     """∫ ν_eff D(u):D(v) dx with ν_eff = 2η + κ/√(|D(uᵏ)|²+ε²) frozen at the iterate."""
-    return secant_viscosity * ufl.inner(strain_rate(u), strain_rate(v)) * ufl.dx
+    return secant_viscosity * ufl.inner(strain_rate(u), strain_rate(v)) * dx
 
 
-def pressure(p, v):
+def pressure(p, v, dx=ufl.dx):
     """−∫ p div v dx."""
-    return -p * ufl.div(v) * ufl.dx
+    return -p * ufl.div(v) * dx
 
 
-def incompressibility(q, u):
+def incompressibility(q, u, dx=ufl.dx):
     """−∫ q div u dx (sign chosen so the saddle-point matrix is symmetric)."""
-    return -q * ufl.div(u) * ufl.dx
+    return -q * ufl.div(u) * dx
 
 
-def gravity(rho, body_force, v):
+def gravity(rho, body_force, v, dx=ufl.dx):
     """∫ ρ f · v dx."""
-    return rho * ufl.inner(body_force, v) * ufl.dx
+    return rho * ufl.inner(body_force, v) * dx

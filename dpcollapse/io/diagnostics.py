@@ -6,7 +6,7 @@ import csv
 from pathlib import Path
 
 COLUMNS = [
-    "step", "t", "dt", "dt_limit", "iterations", "residual", "front", "max_height", "kinetic_energy",
+    "step", "t", "dt", "dt_limit", "courant", "iterations", "residual", "front", "max_height", "kinetic_energy",
     "area", "max_speed", "min_angle", "min_detJ", "ill_posed_fraction", "remeshes", "wall_time",
 ]
 

@@ -1,0 +1,92 @@
+"""Time-step control: the Courant rate, adaptive growth at rest, the Courant bound in the
+diagnostics, and resuming an adaptive run."""
+
+import numpy as np
+import pytest
+
+from dpcollapse.ale.quality import courant_rate
+from dpcollapse.config import load_config
+from dpcollapse.io.diagnostics import read_diagnostics
+from dpcollapse.simulation import FEW_ITERATIONS, STEP_GROWTH, Simulation
+from tests.helpers import ROOT
+
+
+def _sim(config, overrides, run_dir, resume=False):
+    cfg = load_config(ROOT / "configs" / config, overrides)
+    return Simulation(cfg, run_dir, quiet=True, resume=resume)
+
+
+def test_courant_rate_hand_values():
+    """max_K max_vertex |u| / shortest edge: 2 m/s on a unit right triangle (edge 1) → 2 /s;
+    the same speed on a triangle with a 0.1 m edge → 20 /s; none or u = 0 → 0."""
+    tri = np.array([[[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+                    [[2.0, 0.0], [2.1, 0.0], [2.0, 1.0]]])
+    vel = np.zeros((2, 3, 2))
+    vel[0, 1] = (0.0, 2.0)
+    assert courant_rate(tri[:1], vel[:1]) == pytest.approx(2.0)
+    vel[1, 2] = (-1.2, 1.6)
+    assert courant_rate(tri, vel) == pytest.approx(20.0)
+    assert courant_rate(tri, np.zeros_like(vel)) == 0.0
+    assert courant_rate(tri[:0], vel[:0]) == 0.0
+
+
+def test_adaptive_step_grows_at_rest(tmp_path):
+    """A stable mass (creep ≪ 1 mm/s, fixed points of 1-3 iterations): Δt grows ×1.2 per step
+    up to dt_max, so the at-rest test ends the run in far fewer steps than with fixed Δt."""
+    over = ["geometry.mesh_size=0.02", "time.end_time=0.5", "time.adaptive=true",
+            "time.dt_max=0.01", "time.rest_duration=0.1"]
+    sim = _sim("stable.yaml", over, tmp_path)
+    summary = sim.run()
+    d = read_diagnostics(tmp_path / "diagnostics.csv")
+    dt, its = np.array(d["dt"]), np.array(d["iterations"])
+    assert summary["status"] == "at_rest"
+    assert dt[0] == pytest.approx(1e-3) and dt.max() == pytest.approx(0.01)
+    assert np.all(dt <= 0.01 * (1 + 1e-12))
+    easy = its[:-1] <= FEW_ITERATIONS
+    grown = dt[1:] / dt[:-1]
+    capped = np.isclose(dt[1:], 0.01)
+    assert np.allclose(grown[easy & ~capped], STEP_GROWTH)
+    assert len(dt) < 30   # fixed Δt = 1 ms needs 100 steps to stay at rest for 0.1 s
+
+
+def test_courant_bound_in_diagnostics(tmp_path):
+    """A collapse with adaptive steps: every step's Courant number Δt·max|u|/h is ≤ cfl, the
+    bound is active in the fast phase, Δt ≤ dt_max, and the mass still conserves area."""
+    cfl = 0.3
+    over = ["geometry.mesh_size=0.03", "time.end_time=0.3", "time.adaptive=true",
+            f"time.cfl={cfl}", "time.dt_max=0.01"]
+    summary = _sim("rigid.yaml", over, tmp_path).run()
+    d = read_diagnostics(tmp_path / "diagnostics.csv")
+    courant, dt = np.array(d["courant"]), np.array(d["dt"])
+    assert summary["status"] == "end_time" and d["t"][-1] == pytest.approx(0.3)
+    assert np.all(courant <= cfl * (1 + 1e-9)), courant.max()
+    assert np.sum(np.isclose(courant, cfl, rtol=1e-9)) >= 5   # the bound limited those steps
+    assert np.all(dt <= 0.01 * (1 + 1e-12)) and dt.max() > 2e-3
+    assert d["front"][-1] > 0.297 + 0.05
+    assert abs(summary["area_drift"]) < 2e-3
+
+
+def test_fixed_step_reports_its_courant_number(tmp_path):
+    """time.adaptive = false keeps Δt = dt; the courant column is Δt times the rate."""
+    over = ["geometry.mesh_size=0.03", "time.end_time=0.05"]
+    _sim("rigid.yaml", over, tmp_path).run()
+    d = read_diagnostics(tmp_path / "diagnostics.csv")
+    assert np.allclose(d["dt"], 1e-3)
+    assert d["courant"][0] == 0.0 and 0 < d["courant"][-1] < 1
+
+
+def test_adaptive_resume_continues_the_run(tmp_path):
+    """A run stopped after step 12 and resumed takes the uninterrupted run's steps (the
+    checkpoint carries the adaptive target Δt)."""
+    over = ["geometry.mesh_size=0.03", "time.end_time=0.08", "time.adaptive=true",
+            "time.dt_max=0.004", "time.checkpoint_every=1000"]
+    _sim("rigid.yaml", over, tmp_path / "full").run()
+    full = read_diagnostics(tmp_path / "full" / "diagnostics.csv")
+    sim = _sim("rigid.yaml", over, tmp_path / "split")
+    assert sim.run(observers=[lambda s: s.state["step"] >= 12])["status"] == "stopped_by_observer"
+    _sim("rigid.yaml", over, tmp_path / "split", resume=True).run()
+    resumed = read_diagnostics(tmp_path / "split" / "diagnostics.csv")
+    assert len(resumed["t"]) == len(full["t"]) > 12
+    assert len(set(np.round(full["dt"], 12))) > 3   # the step did adapt
+    for key in ("t", "dt", "front", "kinetic_energy"):
+        np.testing.assert_allclose(resumed[key], full[key], rtol=1e-6, atol=1e-12, err_msg=key)
