@@ -125,7 +125,9 @@ def summary(cfg: Config, source: Path | str | None = None) -> str:
         f"  mu_s = {m.mu_s:.4f}  mu_b = {cfg.boundary.mu_bed:.4f}  "
         f"mu_l = {cfg.boundary.mu_wall:.4f}",
         f"  {shape}",
-        f"  time: dt {t.dt:g} s, end {t.end_time:g} s, at most {t.max_steps} steps",
+        (f"  time: adaptive dt from {t.dt:g} s up to {t.dt_max:g} s (Courant number <= {t.cfl:g}), "
+         f"end {t.end_time:g} s" if t.adaptive else
+         f"  time: dt {t.dt:g} s, end {t.end_time:g} s, at most {t.max_steps} steps"),
         f"  output: {cfg.output.directory}",
     ]
     if m.rheology == "mu_i":

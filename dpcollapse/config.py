@@ -271,7 +271,7 @@ class NumericsConfig(_Section):
         ge=0, le=50)
     linear_solver: Literal["mumps", "superlu_dist"] = _f("mumps", "", "Direct LU solver")
     quadrature_degree: Count | None = _f(
-        4, "", "Quadrature degree of the nonlinear terms (secant viscosity, convection, "
+        None, "", "Quadrature degree of the nonlinear terms (secant viscosity, convection, "
         "friction); null: UFL's estimate (8 in cells, 17 on friction facets)", ge=1, le=20)
     mesh_velocity_penalty: Number = _f(
         1.0e3, "", "Penalty xi-hat on (w-u).n on the free surface (dimensionless, applied as xi-hat/h)", gt=0
@@ -299,9 +299,9 @@ class TimeConfig(_Section):
         False, strict=True, description="Adapt the step: x1.2 after a fixed point of <= 3 "
         "iterations, x0.7 after > 12, within dt_max, the Courant bound and the mesh-motion limit")
     cfl: Number = _f(
-        0.5, "", "Courant bound of the adaptive step: dt <= cfl min_K h_K/max_K |u| "
+        1.0, "", "Courant bound of the adaptive step: dt <= cfl min_K h_K/max_K |u| "
         "(h_K shortest edge of cell K, |u| at its vertices)", gt=0, le=10)
-    dt_max: Number = _f(5.0e-3, "s", "Largest time step (adaptive)", gt=0)
+    dt_max: Number = _f(1.5e-3, "s", "Largest time step (adaptive)", gt=0)
     end_time: Number = _f(2.0, "s", "Simulated time cap", gt=0)
     output_every: Count = _f(20, "", "Write XDMF output every N steps", ge=1)
     checkpoint_every: Count = _f(50, "", "Write a restart checkpoint every N steps", ge=1)

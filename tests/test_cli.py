@@ -46,6 +46,11 @@ def test_check_ok(capsys):
     assert "0.4770" in out and "0.0629" in out and "2000" in out
 
 
+def test_check_adaptive(capsys):
+    assert main(["check", RIGID, "--set", "time.adaptive=true", "--set", "time.dt_max=2e-3"]) == 0
+    assert "adaptive dt from 0.001 s up to 0.002 s" in capsys.readouterr().out
+
+
 def test_check_bad_config(tmp_path, capsys):
     bad = tmp_path / "bad.yaml"
     bad.write_text("material:\n  density: -3.0\n")

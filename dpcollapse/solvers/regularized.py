@@ -114,8 +114,8 @@ class RegularizedFlow:
         f = fem.Constant(mesh, np.array(p.body_force, dtype=compat.ScalarType))
         eps = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon))
         eps_f = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon_friction))
-        # nonlinear terms (√, [·]_+, μ(I)) are integrated with a fixed degree q; UFL's estimate
-        # (cell 8, friction facets 17 for Drucker–Prager) costs far more for no accuracy. The
+        # numerics.quadrature_degree q: the nonlinear terms (√, [·]_+, μ(I)) get degree q
+        # instead of UFL's estimate (Drucker–Prager: 8 in cells, 17 on friction facets); the
         # polynomial terms keep their exact degree (≤ 4); FFCx merges rules of equal degree.
         degree = self.settings.quadrature_degree
         metadata = {} if degree is None else {"quadrature_degree": degree}
