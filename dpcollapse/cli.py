@@ -130,6 +130,12 @@ def summary(cfg: Config, source: Path | str | None = None) -> str:
          f"  time: dt {t.dt:g} s, end {t.end_time:g} s, at most {t.max_steps} steps"),
         f"  output: {cfg.output.directory}",
     ]
+    if cfg.numerics.method == "augmented_lagrangian":
+        from dpcollapse.discretization import augmented_settings
+
+        a = augmented_settings(cfg)
+        lines.insert(2, f"  augmented Lagrangian: r = {a.augmentation:.4g} Pa s, r_f = "
+                        f"{a.augmentation_friction:.4g} Pa s/m, at most {a.max_iterations} iterations per step")
     if m.rheology == "mu_i":
         from dpcollapse.rheology.wellposedness import well_posed_window
         from dpcollapse.simulation import rheology

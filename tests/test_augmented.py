@@ -162,3 +162,10 @@ def test_side_wall_friction_matches_regularized(tmp_path):
     assert abs(al["kinetic_energy"] / reg["kinetic_energy"] - 1) < 0.03
     assert free["front"] > al["front"] + 5e-3
     assert free["kinetic_energy"] > 1.1 * al["kinetic_energy"]
+
+
+def test_check_prints_the_penalties():
+    """`dpcollapse check` shows the AL penalties actually used (defaults from h0 and ρ)."""
+    proc = run_cli("check", ROOT / "configs/rigid.yaml", "--set", "numerics.method=augmented_lagrangian")
+    assert proc.returncode == 0, proc.stderr
+    assert "augmented Lagrangian: r = 1214 Pa s, r_f = 4.855e+04 Pa s/m" in proc.stdout
