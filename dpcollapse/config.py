@@ -266,6 +266,9 @@ class NumericsConfig(_Section):
     reuse_factorization: bool = _f(
         False, "", "Factorize once per time step; later fixed-point iterates solve with GMRES "
         "preconditioned by that LU (experimental)")
+    extrapolate: bool = Field(
+        False, strict=True, description="Start each step's fixed point from the linear "
+        "extrapolation of the last two steps instead of the last state")
     anderson_depth: Count = _f(
         5, "", "Anderson acceleration of the fixed point: history length m (0 = plain Picard)",
         ge=0, le=50)

@@ -58,7 +58,7 @@ def picard_settings(cfg: Config) -> PicardSettings:
     n = cfg.numerics
     return PicardSettings(n.epsilon, n.epsilon_friction, n.nonlinear_rtol, n.nonlinear_atol,
                           n.max_iterations, n.linear_solver, n.anderson_depth,
-                          n.reuse_factorization, n.quadrature_degree)
+                          n.reuse_factorization, n.quadrature_degree, n.extrapolate)
 
 
 def augmented_settings(cfg: Config) -> AugmentedSettings:

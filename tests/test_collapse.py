@@ -159,3 +159,21 @@ def test_stale_factorization_gives_the_same_answer(tmp_path):
     assert s_new["flow_factorizations"] < 0.75 * s_ref["flow_factorizations"], (s_new, s_ref)
     for key in ("front", "kinetic_energy", "max_speed"):
         np.testing.assert_allclose(d_new[key], d_ref[key], rtol=1e-5, err_msg=key)
+
+
+def test_extrapolated_start_saves_iterations(tmp_path):
+    """numerics.extrapolate: the first iterate xₙ + (Δt/Δt_prev)(xₙ − x_{n−1}) needs fewer
+    fixed-point iterations (measured to rest at 2 cm: 1.59 against 2.46 per step) for the
+    same solution up to the fixed-point tolerance."""
+    over = ["geometry.mesh_size=0.03", "time.end_time=0.1", "time.output_every=1000",
+            "time.checkpoint_every=1000"]
+    s_ref, d_ref = _run("rigid.yaml", over, tmp_path / "ref")
+    s_new, d_new = _run("rigid.yaml", over + ["numerics.extrapolate=true"], tmp_path / "extrapolated")
+    assert s_new["flow_solves"] < 0.8 * s_ref["flow_solves"], (s_new["flow_solves"], s_ref["flow_solves"])
+    np.testing.assert_allclose(d_new["front"], d_ref["front"], atol=5e-4)
+    np.testing.assert_allclose(d_new["kinetic_energy"], d_ref["kinetic_energy"], rtol=2e-2)
+
+
+def test_extrapolate_key_is_validated():
+    code = run_cli("check", ROOT / "configs/rigid.yaml", "--set", "numerics.extrapolate=maybe")
+    assert code.returncode == 2 and "numerics.extrapolate" in code.stdout + code.stderr
