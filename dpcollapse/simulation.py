@@ -229,14 +229,7 @@ class Simulation:
         for the caller to restore or destroy."""
         old = self.disc
         self.disc = Discretization(tagged, self.cfg)
-        new = self.disc.flow
-        for name in ("solution", "iterate", "u_old", "mesh_velocity"):
-            getattr(new, name).x.array[:] = getattr(old.flow, name).x.array
-        if hasattr(new, "multiplier_functions"):  # augmented Lagrangian: same dofs too
-            olds = old.flow.multiplier_functions()
-            for name, func in new.multiplier_functions().items():
-                func.x.array[:] = olds[name].x.array
-            new.pressure_known = old.flow.pressure_known
+        self.disc.flow.copy_state_from(old.flow)
 
     def _needs_remesh(self) -> str | None:
         if self.disc.motion is None:

@@ -104,7 +104,7 @@ def snapshot_multipliers(flow) -> dict[str, CellwiseField]:
     """The augmented Lagrangian multipliers of ``flow`` (none for other solvers), gathered on
     every rank: DG tensors (σ', γ̇) and P2 vectors (σ_T, δ, σ_w, δ_w), cell by cell."""
     fields = {}
-    for name, func in getattr(flow, "multiplier_functions", dict)().items():
+    for name, func in flow.multiplier_functions().items():
         V = func.function_space
         bs = V.dofmap.index_map_bs
         degree = V.ufl_element().degree()
@@ -115,7 +115,7 @@ def snapshot_multipliers(flow) -> dict[str, CellwiseField]:
 def load_multipliers(flow, fields: dict[str, CellwiseField]) -> None:
     """Evaluate snapshots of multipliers at ``flow``'s dof coordinates (a warm start for the
     iteration: the converged step does not depend on it). Missing names are left at zero."""
-    targets = getattr(flow, "multiplier_functions", dict)()
+    targets = flow.multiplier_functions()
     for name, field in fields.items():
         if name in targets:
             func = targets[name]

@@ -43,8 +43,8 @@ from dpcollapse.geometry.mesher import BED, WALL
 from dpcollapse.rheology.drucker_prager import DruckerPrager, strain_rate
 from dpcollapse.solvers import al_projection as local
 from dpcollapse.solvers.anderson import Anderson
-from dpcollapse.solvers.regularized import (CONTRACTION_CAP, FlowParameters, PicardSettings, RegularizedFlow,
-                                           StepReport)
+from dpcollapse.solvers.regularized import (FlowParameters, PicardSettings, RegularizedFlow, StepReport,
+                                           contraction, distance_to_limit)
 
 
 #: Polynomial degree of the discontinuous multiplier space (γ̇, σ') and of the nodes where
@@ -84,7 +84,7 @@ class AugmentedLagrangianFlow(RegularizedFlow):
 
     Same interface as :class:`RegularizedFlow` (solution, iterate, u_old, mesh_velocity,
     solve_step, accept_step, reset_iterate), plus the multipliers ``sigma`` (σ'), ``gamma``
-    (γ̇) on DG1 tensors and ``traction`` (σ_T), ``slip`` (δ) on the P2 velocity space.
+    (γ̇) on DG2 tensors and ``traction`` (σ_T), ``slip`` (δ) on the P2 velocity space.
     """
 
     def __init__(self, tagged, params: FlowParameters, settings: AugmentedSettings):
@@ -211,9 +211,6 @@ class AugmentedLagrangianFlow(RegularizedFlow):
         self._threshold = np.zeros(len(self._f_blocks))
 
     # ------------------------------------------------------------------ helpers
-    def _sum(self, form) -> float:
-        return self.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
-
     def _assemble_nodal(self, form, target: fem.Function) -> None:
         vec = target.vector
         with vec.localForm() as loc:
@@ -228,6 +225,13 @@ class AugmentedLagrangianFlow(RegularizedFlow):
     def multiplier_functions(self) -> dict[str, fem.Function]:
         """The multipliers by name, for transfer across remeshes and checkpoints."""
         return {f.name: f for f in self._multipliers()}
+
+    def copy_state_from(self, other: AugmentedLagrangianFlow) -> None:
+        """Also the multipliers (same mesh, same dofs) and whether a pressure is known."""
+        super().copy_state_from(other)
+        for mine, theirs in zip(self._multipliers(), other._multipliers()):
+            mine.x.array[:] = theirs.x.array
+        self.pressure_known = other.pressure_known
 
     def _state(self) -> list[np.ndarray]:
         return [f.x.array for f in self._multipliers()]
@@ -246,6 +250,11 @@ class AugmentedLagrangianFlow(RegularizedFlow):
         g = self.gamma.x.array.reshape(-1, 4)
         return np.all(g[dofs] == 0.0, axis=(1, 2))
 
+    def _wall_slip(self, u: np.ndarray) -> np.ndarray:
+        """u_T = (u·t) t at the wall nodes, from nodal velocities u (n_nodes, 2)."""
+        t = self._f_tangent
+        return np.sum(u[self._f_blocks] * t, axis=1)[:, None] * t
+
     # ------------------------------------------------------------------ coefficients
     def _update_coefficients(self) -> float:
         """κ(p), η(|D|, p) and the Coulomb limits μ[p − σ'_nn]_+ (walls), (2/w)μ_w[p]_+ (side
@@ -259,11 +268,9 @@ class AugmentedLagrangianFlow(RegularizedFlow):
         def refresh(values: np.ndarray, compute) -> None:
             old = values.copy()
             compute()
-            n = len(values)
             diff = self.comm.allreduce(float(np.dot(values - old, values - old)), op=MPI.SUM)
             norm = self.comm.allreduce(float(np.dot(values, values)), op=MPI.SUM)
-            count = self.comm.allreduce(n, op=MPI.SUM)
-            changes.append(math.sqrt(diff) / max(math.sqrt(norm), 1e-300 * count))
+            changes.append(math.sqrt(diff) / max(math.sqrt(norm), 1e-300))
 
         refresh(self.kappa.x.array, lambda: self.kappa.interpolate(self._kappa_expr))
         if self._eta_expr is not None:
@@ -319,12 +326,10 @@ class AugmentedLagrangianFlow(RegularizedFlow):
             self.gamma.x.array[:] = 0.0
             if self.has_friction:
                 self._compute_wall_threshold()
-                b, t = self._f_blocks, self._f_tangent
-                u = self.solution.x.array[self.velocity_dofs].reshape(-1, 2)
-                u_t = np.sum(u[b] * t, axis=1)[:, None] * t
+                u_t = self._wall_slip(self.solution.x.array[self.velocity_dofs].reshape(-1, 2))
                 size = np.sqrt(np.sum(u_t * u_t, axis=1) + s.epsilon_friction**2)
                 traction = self.traction.x.array.reshape(-1, 2)
-                traction[b] = -(self._threshold / size)[:, None] * u_t
+                traction[self._f_blocks] = -(self._threshold / size)[:, None] * u_t
                 self.traction.x.scatter_forward()
             return report.iterations
         finally:
@@ -367,8 +372,7 @@ class AugmentedLagrangianFlow(RegularizedFlow):
     def _local_friction(self, u: np.ndarray) -> None:
         """Steps 2–3 for Coulomb friction at the wall nodes: δ and σ_T."""
         r_f = float(self.r_f.value)
-        b, t = self._f_blocks, self._f_tangent
-        u_t = np.sum(u[b] * t, axis=1)[:, None] * t
+        b, u_t = self._f_blocks, self._wall_slip(u)
         traction = self.traction.x.array.reshape(-1, 2)
         slip = self.slip.x.array.reshape(-1, 2)
         delta = local.slip_multiplier(traction[b], u_t, self._threshold, 0.0, r_f)
@@ -412,7 +416,7 @@ class AugmentedLagrangianFlow(RegularizedFlow):
         return math.sqrt(self.comm.allreduce(local, op=MPI.SUM) / max(count, 1))
 
     def _prepare_norms(self) -> None:
-        """Cell areas, the owned cells' DG1 blocks and the wall nodes' lumped weights."""
+        """Cell areas, per-dof weights of the DG norm and the wall nodes' lumped weights."""
         self._areas = self._cell_areas()
         blocks = compat.cell_dofs(self.T)[:len(self._areas)]        # (owned cells, nodes)
         weights = np.zeros(self.sigma.x.array.size // 4)
@@ -447,8 +451,7 @@ class AugmentedLagrangianFlow(RegularizedFlow):
                   (r * primal, s.rtol * stress + r * tol),
                   (r * dual, s.rtol * stress + r * tol)]
         if self.has_friction:
-            b, t = self._f_blocks, self._f_tangent
-            u_t = np.sum(u[b] * t, axis=1)[:, None] * t
+            b, u_t = self._f_blocks, self._wall_slip(u)
             slip = self.slip.x.array.reshape(-1, 2)[b]
             primal = self._wall_norm(u_t - slip)
             dual = self._wall_norm(slip - slip_old.reshape(-1, 2)[b])
@@ -480,7 +483,6 @@ class AugmentedLagrangianFlow(RegularizedFlow):
         if not self.pressure_known:
             start_iterations = self._regularized_start(dt)
         self._update_coefficients()   # from the last accepted state (uⁿ, pⁿ, σ'ⁿ)
-        self.coefficient_updates = 0
         self.anderson.reset()
         residual = math.inf
         previous = 0.0
@@ -501,8 +503,9 @@ class AugmentedLagrangianFlow(RegularizedFlow):
             if not np.all(np.isfinite(new)):
                 return fail(k, "non-finite velocity")
             before = np.concatenate([f.x.array[:n] for f, n in self._mixed]) if s.anderson_depth else None
-            gamma_old, slip_old, side_old = (self.gamma.x.array.copy(), self.slip.x.array.copy(),
-                                             self.side_slip.x.array.copy())
+            gamma_old = self.gamma.x.array.copy()
+            slip_old = self.slip.x.array.copy() if self.has_friction else None
+            side_old = self.side_slip.x.array.copy() if self.has_side_walls else None
             u_nodes = self.solution.x.array[self.velocity_dofs].reshape(-1, 2)
             self._local_yield()
             if self.has_friction:
@@ -515,16 +518,15 @@ class AugmentedLagrangianFlow(RegularizedFlow):
             checks = self._checks(u_nodes, gamma_old, slip_old, side_old, scale)
             # distance to the limit, not the bare increment: the iteration converges
             # linearly, slowly for large r, so with contraction ρ it is about Δ ρ/(1 − ρ)
-            rho = min(change / previous, CONTRACTION_CAP) if previous > 0 else 0.0
+            rho = contraction(change, previous)
             previous = change
-            checks.append((change * max(1.0, rho / (1.0 - rho)), s.rtol * scale + s.atol))
+            checks.append((distance_to_limit(change, rho), s.rtol * scale + s.atol))
             residual = max(value / tol for value, tol in checks) * s.rtol
             self.iterate.x.array[:] = self.solution.x.array
             if all(value <= tol for value, tol in checks):
                 # inner problem converged: update κ, η, Coulomb limits; done if they held
                 if self.pressure_known:
                     return StepReport(True, start_iterations + k, residual)
-                self.coefficient_updates += 1
                 if self._update_coefficients() <= s.rtol:
                     self.pressure_known = True
                     return StepReport(True, start_iterations + k, residual)

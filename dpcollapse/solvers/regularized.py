@@ -72,6 +72,17 @@ class StepReport:
 CONTRACTION_CAP = 0.99
 
 
+def contraction(change: float, previous: float) -> float:
+    """ρ = ‖Δ_k‖/‖Δ_{k−1}‖ of successive increments, capped at CONTRACTION_CAP (0 without
+    a previous increment)."""
+    return min(change / previous, CONTRACTION_CAP) if previous > 0 else 0.0
+
+
+def distance_to_limit(change: float, rho: float) -> float:
+    """Estimated distance of a linearly converging iterate to its limit, Δ max(1, ρ/(1 − ρ))."""
+    return change * max(1.0, rho / (1.0 - rho))
+
+
 class RegularizedFlow:
     """Spaces, state, forms and solvers of the regularized flow on one mesh."""
 
@@ -202,6 +213,15 @@ class RegularizedFlow:
         self.u_old.x.array[:] = self.solution.x.array[self.velocity_dofs]
         self._history = getattr(self, "_pending_history", None)
 
+    def multiplier_functions(self) -> dict:
+        """Fields besides (u, p) that a remesh or checkpoint must carry: none here."""
+        return {}
+
+    def copy_state_from(self, other: RegularizedFlow) -> None:
+        """Take the state of a flow on the same mesh with the same dofs (new facet tags)."""
+        for name in ("solution", "iterate", "u_old", "mesh_velocity"):
+            getattr(self, name).x.array[:] = getattr(other, name).x.array
+
     def reset_iterate(self) -> None:
         """Start the next step's fixed point from the last accepted state."""
         self.solution.x.array[:] = self.iterate.x.array
@@ -250,12 +270,11 @@ class RegularizedFlow:
             # the last contraction measured in an earlier step stands in for ρ — otherwise a
             # slowly contracting creep passes the test at k = 1 forever, measured: 3 mm/s)
             if previous > 0:
-                rho = min(change / previous, CONTRACTION_CAP)
-                measured = rho
+                rho = measured = contraction(change, previous)
             else:
                 rho = self._contraction if extrapolated else 0.0
                 measured = None
-            error = change * max(1.0, rho / (1.0 - rho))
+            error = distance_to_limit(change, rho)
             previous = change
             residual = error / scale if scale > 0 else error
             if error <= s.rtol * scale + s.atol:

@@ -344,6 +344,15 @@ def _write_csv(path: Path, cases, extra) -> None:
                     f"{c.ill_posed_depth:.4e},{c.I_surface:.5g},{c.I_min:.5g},{c.I_max:.5g}\n")
 
 
+def _label(ax, xlabel: str, ylabel: str, title: str, legend: dict | None = None, which: str = "both") -> None:
+    """Axis labels, title, legend (font size 8 unless given) and a light grid of one panel."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(**(legend or {"fontsize": 8}))
+    ax.grid(alpha=0.3, which=which)
+
+
 def _plot(path: Path, cases, extra, cfg: Config, order: float, window, I_theta: float) -> None:
     import matplotlib
 
@@ -361,21 +370,13 @@ def _plot(path: Path, cases, extra, cfg: Config, order: float, window, I_theta: 
         y, ux = c.profile
         a.plot(ux, y * 1e3, "o", ms=2 + 2 * (len(cases) - 1 - k), mfc="none", color=f"C{k}",
                label=f"2D, {c.label}")
-    a.set_xlabel("u_x [m/s]")
-    a.set_ylabel("y [mm]")
-    a.set_title("Steady velocity profile")
-    a.legend(fontsize=8)
-    a.grid(alpha=0.3)
+    _label(a, "u_x [m/s]", "y [mm]", "Steady velocity profile", which="major")
     a = ax[0, 1]
     for c in cases + extra:
         y, ux = c.profile
         e = np.abs(ux - bagnold_velocity(law, theta, h, np.clip(y, 0, h), m.density, m.gravity))
         a.semilogx(np.maximum(e, 1e-12), y * 1e3, ".-", lw=1, label=f"2D, {c.label}")
-    a.set_xlabel("|u_x − U| at the P2 dof levels [m/s]")
-    a.set_ylabel("y [mm]")
-    a.set_title("Pointwise error of the steady profile")
-    a.legend(fontsize=8)
-    a.grid(alpha=0.3, which="both")
+    _label(a, "|u_x − U| at the P2 dof levels [m/s]", "y [mm]", "Pointwise error of the steady profile")
     a = ax[0, 2]
     for k, c in enumerate(cases):
         y, I = c.cell_I
@@ -389,11 +390,7 @@ def _plot(path: Path, cases, extra, cfg: Config, order: float, window, I_theta: 
     a.axvline(I_theta, color="k", lw=1.5, label=f"I_θ = {I_theta:.4f}")
     lo, hi = window
     a.axvspan(lo, hi, color="g", alpha=0.08, label=f"well posed: {lo:.3g} < I < {hi:.3g}")
-    a.set_xlabel("I")
-    a.set_ylabel("y [mm]")
-    a.set_title("Inertial number at steady state")
-    a.legend(fontsize=7, loc="lower left")
-    a.grid(alpha=0.3, which="both")
+    _label(a, "I", "y [mm]", "Inertial number at steady state", legend=dict(fontsize=7, loc="lower left"))
     a = ax[1, 0]
     xs = np.array([c.mesh_size for c in cases])
     es = np.array([c.error for c in cases])
@@ -406,32 +403,20 @@ def _plot(path: Path, cases, extra, cfg: Config, order: float, window, I_theta: 
     a.axhline(1e-2, color="r", lw=0.8, label="1 % goal")
     a.set_xticks(xs * 1e3, [f"{x * 1e3:g}" for x in xs])
     a.minorticks_off()
-    a.set_xlabel("ΔX [mm]")
-    a.set_ylabel("error")
-    a.set_title("Convergence in space (steady state)")
-    a.legend(fontsize=8)
-    a.grid(alpha=0.3, which="both")
+    _label(a, "ΔX [mm]", "error", "Convergence in space (steady state)")
     a = ax[1, 1]
     for c in cases + extra:
         t, change, distance, err = np.array(c.history, dtype=float).T
         line, = a.semilogy(t, err, "-", label=f"L² error, {c.label}")
         ok = np.isfinite(distance)
         a.semilogy(t[ok], distance[ok], ":", color=line.get_color(), lw=1)
-    a.set_xlabel("t [s]")
-    a.set_ylabel("relative")
-    a.set_title("Approach to steady state (dotted: estimated distance)")
-    a.legend(fontsize=8)
-    a.grid(alpha=0.3, which="both")
+    _label(a, "t [s]", "relative", "Approach to steady state (dotted: estimated distance)")
     a = ax[1, 2]
     for c in cases + extra:
         t, its = np.array(c.step_iterations, dtype=float).T
         a.plot(t, its, "-", lw=1, label=f"{c.label}: {c.iterations} in {c.steps} steps")
-    a.set_xlabel("t [s]")
-    a.set_ylabel("Picard iterations per step")
     a.set_yscale("log")
-    a.set_title("Nonlinear iterations")
-    a.legend(fontsize=8)
-    a.grid(alpha=0.3, which="both")
+    _label(a, "t [s]", "Picard iterations per step", "Nonlinear iterations")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
