@@ -144,7 +144,7 @@ def test_mu_i_bagnold_profile(tmp_path):
     n5, n10 = res["cases"]
     assert n5.status == n10.status == "stopped_by_observer"
     assert n5.error < 1.5e-3 and n10.error < 4e-4, (n5.error, n10.error)
-    assert 1.8 < res["order"] < 2.3, res["order"]
+    assert 1.8 < res["order"] < 2.2, res["order"]   # measured 2.01
 
 
 def test_side_wall_friction_matches_regularized(tmp_path):

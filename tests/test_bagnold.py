@@ -30,7 +30,7 @@ def test_steady_profile_matches_bagnold(quick):
     assert (n5.cells, n10.cells) == (5, 10)
     assert n5.error < 1e-3 and n10.error < 3e-4, (n5.error, n10.error)
     assert n10.surface_error < 2e-3, n10.surface_error
-    assert 1.6 < res["order"] < 2.5, res["order"]
+    assert 1.8 < res["order"] < 2.2, res["order"]   # measured 1.99
 
 
 def test_steady_state_detected_and_run_stopped_cleanly(quick):
