@@ -51,6 +51,9 @@ log = logging.getLogger("dpcollapse")
 REMESH_AREA_TOLERANCE = 1e-6
 #: Steps between two remeshes triggered by the angle criterion alone.
 REMESH_COOLDOWN = 5
+#: After a remesh that left an angle below the threshold, remesh again only when the
+#: smallest angle has dropped below this fraction of the angle the remesh left.
+REMESH_DEGRADATION = 0.9
 #: Energy guard (moving domains): the kinetic energy may exceed the work of gravity by at
 #: most this fraction before the run is declared numerically unstable.
 ENERGY_TOLERANCE = 0.05
@@ -193,6 +196,13 @@ class Simulation:
         cells_after = self.comm.allreduce(compat.num_owned_cells(tagged.mesh), op=MPI.SUM)
         self.state["remeshes"] += 1
         self.state["last_remesh_step"] = self.state["step"]
+        angle_after = quality(self.disc.mesh)["min_angle"]
+        self.state["remesh_angle_after"] = angle_after
+        if angle_after < cfg.numerics.remesh_min_angle:
+            log.warning("remesh %d: the new mesh's smallest angle is %.1f° (< %g°, set by the "
+                        "boundary); the next remesh waits until it drops below %.1f°",
+                        self.state["remeshes"], angle_after, cfg.numerics.remesh_min_angle,
+                        REMESH_DEGRADATION * angle_after)
         self.timings["remesh"] += time.perf_counter() - t0
 
         log.info("remesh %d at t = %.4f s (%s): area %.8e -> %.8e m² (%+.2e rel), cells %d -> %d, "
@@ -236,7 +246,11 @@ class Simulation:
             return None
         q = quality(self.disc.mesh)
         since = self.state["step"] - self.state["last_remesh_step"]
-        if q["min_angle"] < self.cfg.numerics.remesh_min_angle and since >= REMESH_COOLDOWN:
+        # a remesh that could not reach the threshold (a sharp boundary corner) sets a
+        # lower one, so that the same mesh is not rebuilt every REMESH_COOLDOWN steps
+        threshold = min(self.cfg.numerics.remesh_min_angle,
+                        REMESH_DEGRADATION * self.state.get("remesh_angle_after", math.inf))
+        if q["min_angle"] < threshold and since >= REMESH_COOLDOWN:
             return f"min angle {q['min_angle']:.1f}°"
         return None
 

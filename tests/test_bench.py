@@ -80,10 +80,14 @@ def test_fitted_exponent():
     assert math.isnan(fitted_exponent([1e3], [1.0]))
 
 
-def test_instrumentation_changes_nothing(tmp_path):
+def test_instrumentation_changes_nothing(tmp_path, monkeypatch):
     """Timing wrappers (with the explicit factorization) give bit-identical diagnostics, and
     every new discretization (here: a remesh every 5 steps) is instrumented."""
+    from dpcollapse import simulation
     from dpcollapse.simulation import Simulation
+
+    # a remesh every 5 steps: an unreachable threshold, and no lowering of it after a remesh
+    monkeypatch.setattr(simulation, "REMESH_DEGRADATION", math.inf)
 
     cfg = load_case_config(default_configs_dir(), "rigid.yaml",
                            ("geometry.mesh_size=0.04", "time.end_time=0.012",

@@ -8,6 +8,7 @@ polygon vertex becomes a gmsh point, so the meshed boundary contains the polygon
 
 from __future__ import annotations
 
+import math
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Callable
@@ -21,6 +22,11 @@ from dpcollapse import compat
 BED, WALL, SURFACE, LEFT, RIGHT = 1, 2, 3, 4, 5
 TAG_NAMES = {BED: "bed", WALL: "wall", SURFACE: "surface", LEFT: "left", RIGHT: "right"}
 DOMAIN = 10
+#: Polygon edges up to this many target sizes long get their number of mesh edges from
+#: ``boundary_segments``; longer ones (the initial shape's sides) are split by gmsh at h.
+SINGLE_SEGMENT = 1.5
+#: Largest length ratio of a boundary mesh edge to its shortest polygon neighbour.
+BOUNDARY_GRADING = 2.0
 
 
 @dataclass
@@ -61,6 +67,9 @@ def build_polygon_model(gmsh, points: np.ndarray, edge_tags: np.ndarray,
         h = min(size(points[i], int(tags[i])), size(points[i], int(tags[i - 1])))
         pts.append(occ.addPoint(float(x), float(y), 0.0, h))
     lines = [occ.addLine(pts[i], pts[(i + 1) % n]) for i in range(n)]
+    for i, segments in enumerate(boundary_segments(points, tags, size)):
+        if segments:
+            occ.mesh.setTransfiniteCurve(lines[i], segments + 1)
     loop = occ.addCurveLoop(lines)
     surface = occ.addPlaneSurface([loop])
     occ.synchronize()
@@ -74,7 +83,36 @@ def build_polygon_model(gmsh, points: np.ndarray, edge_tags: np.ndarray,
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 1)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    # boundary edges up to 1.5 h long (see boundary_segments) must not coarsen the inside
+    sizes = [size(points[i], int(tags[i])) for i in range(n)]
+    gmsh.option.setNumber("Mesh.MeshSizeMax", float(max(sizes)))
     gmsh.model.mesh.generate(2)
+
+
+def boundary_segments(points: np.ndarray, tags: np.ndarray,
+                      size: Callable[[np.ndarray, int], float]) -> list[int]:
+    """Number of mesh edges for each polygon edge i (points i → i+1); 0: let gmsh choose.
+
+    gmsh splits a line as soon as it is slightly longer than its size (⌊∫ds/h + 1.99⌋
+    nodes), which halved the boundary spacing of every remeshed polygon (its edges are
+    0.5–1.5 h long) and, with the size extended from the boundary, doubled the cell count.
+    So an edge of length L ≤ SINGLE_SEGMENT·h gets ⌈L / (BOUNDARY_GRADING·L_min)⌉ mesh
+    edges, L_min the shorter of its neighbours: one edge, unless it is more than twice as
+    long as a neighbour (a short edge next to a long one, e.g. at the tip of a
+    landed nose, leaves only a sliver triangle between them).
+    """
+    pts = np.asarray(points, dtype=float)
+    n = len(pts)
+    lengths = np.hypot(*(np.roll(pts, -1, axis=0) - pts).T)
+    out = []
+    for i in range(n):
+        h = size(pts[i], int(tags[i]))
+        if lengths[i] > SINGLE_SEGMENT * h:
+            out.append(0)
+            continue
+        shortest = min(lengths[i - 1], lengths[(i + 1) % n])
+        out.append(max(1, int(math.ceil(lengths[i] / (BOUNDARY_GRADING * shortest) - 1e-9))))
+    return out
 
 
 def size_function(mesh_size: float, surface_mesh_size: float | None):
