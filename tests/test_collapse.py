@@ -189,3 +189,8 @@ def test_extrapolated_start_saves_iterations(tmp_path):
 def test_extrapolate_key_is_validated():
     code = run_cli("check", ROOT / "configs/rigid.yaml", "--set", "numerics.extrapolate=maybe")
     assert code.returncode == 2 and "numerics.extrapolate" in code.stdout + code.stderr
+    code = run_cli("check", ROOT / "configs/rigid.yaml", "--set", "numerics.extrapolate=true",
+                   "--set", "time.adaptive=true")
+    out = code.stdout + code.stderr
+    assert code.returncode == 2 and "time.adaptive" in out and "Traceback" not in out
+    assert len(out.strip().splitlines()) == 1
