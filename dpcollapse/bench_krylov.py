@@ -10,7 +10,14 @@ MUMPS the LU factorization, for the iterative solver the assembly of the two pre
 operators and the AMG hierarchies) and solve (MUMPS: triangular solves; iterative: the
 FGMRES iterations); assembly of the flow matrix is the same for both and left out. Times
 are the maximum over ranks. ``--np N`` reruns the grid under ``mpirun -n N``.
-Writes ``krylov.csv`` (rank 0) and prints the table.
+
+The first steps hide the hard case: at rest |D| ≈ 0 everywhere, so ν ≈ κ/ε is large but
+nearly uniform. The contrast appears once part of the mass flows (ν ~ 10–100 Pa s) next to
+rigid zones (ν ~ κ/ε). Hence a second table, "developed": the same case run with MUMPS to
+``DEVELOPED.end_time`` (0.3 s, fast spreading), then the first Picard system of the next step
+assembled with each ε and solved once by each solver (initial guess: the last state;
+median of ``REPEATS`` after a warm-up), reporting Krylov iterations or failure.
+Writes ``krylov.csv`` (rank 0) and prints the tables.
 """
 
 from __future__ import annotations
@@ -50,9 +57,14 @@ class KrylovPlan:
 
 PLAN = KrylovPlan((0.04, 0.02, 0.01, 0.005), (1e-2, 1e-4, 1e-6), 0.02)
 QUICK_PLAN = KrylovPlan((0.04,), (1e-2, 1e-6), 0.003)
+DEVELOPED = KrylovPlan((0.04, 0.02, 0.01, 0.005), (1e-2, 1e-4, 1e-6), 0.3)
+QUICK_DEVELOPED = KrylovPlan((0.04,), (1e-2, 1e-6), 0.05)
 
-COLUMNS = ("solver", "np", "mesh_size", "dofs", "epsilon", "status", "steps", "solves",
-           "krylov_mean", "krylov_max", "setup_s", "solve_s", "time_per_solve_s",
+#: Timed repeats (after a warm-up) of each solve of the developed state; the median is used.
+REPEATS = 3
+
+COLUMNS = ("kind", "solver", "np", "mesh_size", "dofs", "epsilon", "t", "status", "steps",
+           "solves", "krylov_mean", "krylov_max", "setup_s", "solve_s", "time_per_solve_s",
            "lu_over_iterative", "wall_s", "front")
 
 
@@ -122,14 +134,81 @@ def run_krylov_case(cfg, run_dir: Path, comm) -> dict:
     its = np.asarray(timer.iterations, dtype=float)
     iterative = n.linear_solver == "iterative"
     return {
-        "solver": n.linear_solver, "np": comm.size, "mesh_size": cfg.geometry.mesh_size,
-        "dofs": dofs, "epsilon": n.epsilon, "status": status, "steps": int(sim.state["step"]),
+        "kind": "first_steps", "solver": n.linear_solver, "np": comm.size,
+        "mesh_size": cfg.geometry.mesh_size, "dofs": dofs, "epsilon": n.epsilon,
+        "t": float(sim.state["t"]), "status": status, "steps": int(sim.state["step"]),
         "solves": solves,
         "krylov_mean": float(its.mean()) if iterative and solves else math.nan,
         "krylov_max": int(its.max()) if iterative and solves else -1,
         "setup_s": setup, "solve_s": solve, "time_per_solve_s": setup + solve,
         "lu_over_iterative": math.nan, "wall_s": wall, "front": front,
     }
+
+
+def developed_rows(cfg, run_dir: Path, comm, epsilons: Sequence[float]) -> list[dict]:
+    """Run ``cfg`` (MUMPS) to its end time; then, for each ε, the next Picard system solved
+    once by each solver. Rows of kind "developed"."""
+    from mpi4py import MPI
+
+    from dpcollapse.simulation import Simulation
+    from dpcollapse.solvers.linear import DirectSolver
+
+    sim = Simulation(cfg, run_dir, quiet=True, comm=comm)
+    sim.run()
+    flow, rows = sim.disc.flow, []
+    flow.dt.value = cfg.time.dt
+    start = flow.solution.vector.copy()
+    x = flow.solution.vector.duplicate()
+    n = cfg.numerics
+    try:
+        for eps in epsilons:
+            flow.epsilon.value = eps
+            A, b = flow.system.assemble_matrix(), flow.system.assemble_vector()
+            lu_time = math.nan
+            for solver_name in ("iterative", "mumps"):
+                if solver_name == "iterative":
+                    solver = flow.iterative_solver(n.krylov_rtol, n.krylov_max_iterations,
+                                                   prefix="dpc_bench_it_")
+                else:
+                    solver = DirectSolver(comm, "mumps", prefix="dpc_bench_lu_")
+                setups, solves, status, its = [], [], "ok", -1
+                for _ in range(REPEATS + 1):
+                    start.copy(x)
+                    A = flow.system.assemble_matrix()   # a new matrix state: PETSc sets up anew
+                    comm.barrier()
+                    t0 = time.perf_counter()
+                    solver.set_operator(A)
+                    solver.ksp.setUp()
+                    t1 = time.perf_counter()
+                    try:
+                        solver.solve(b, x)
+                    except RuntimeError:
+                        status = f"failed ({solver.ksp.getIterationNumber()} its)"
+                    setups.append(comm.allreduce(t1 - t0, op=MPI.MAX))
+                    solves.append(comm.allreduce(time.perf_counter() - t1, op=MPI.MAX))
+                if solver_name == "iterative":
+                    its = solver.last_iterations
+                solver.destroy()
+                setup, solve = float(np.median(setups[1:])), float(np.median(solves[1:]))
+                row = {
+                    "kind": "developed", "solver": solver_name, "np": comm.size,
+                    "mesh_size": cfg.geometry.mesh_size, "dofs": _global_dofs(flow.W),
+                    "epsilon": eps, "t": float(sim.state["t"]), "status": status,
+                    "steps": int(sim.state["step"]), "solves": 1,
+                    "krylov_mean": float(its) if its >= 0 else math.nan, "krylov_max": its,
+                    "setup_s": setup, "solve_s": solve, "time_per_solve_s": setup + solve,
+                    "lu_over_iterative": math.nan, "wall_s": math.nan, "front": math.nan,
+                }
+                rows.append(row)
+                if solver_name == "mumps":
+                    lu_time = row["time_per_solve_s"]
+            if rows[-2]["status"] == "ok":
+                rows[-2]["lu_over_iterative"] = lu_time / rows[-2]["time_per_solve_s"]
+    finally:
+        start.destroy()
+        x.destroy()
+        sim.disc.destroy()
+    return rows
 
 
 def plan_configs(plan: KrylovPlan, configs: Path):
@@ -171,11 +250,12 @@ def run_mpi_grid(nprocs: int, quick: bool, out: Path, configs: Path,
 
 def add_ratios(rows: Sequence[dict]) -> None:
     """lu_over_iterative: MUMPS time per solve / iterative time per solve, same np, h, ε."""
-    lu = {(r["np"], r["mesh_size"], r["epsilon"]): r["time_per_solve_s"]
+    lu = {(r["kind"], r["np"], r["mesh_size"], r["epsilon"]): r["time_per_solve_s"]
           for r in rows if r["solver"] != "iterative"}
     for r in rows:
-        key = (r["np"], r["mesh_size"], r["epsilon"])
-        if r["solver"] == "iterative" and key in lu and r["time_per_solve_s"] > 0:
+        key = (r["kind"], r["np"], r["mesh_size"], r["epsilon"])
+        if (r["solver"] == "iterative" and key in lu and r["time_per_solve_s"] > 0
+                and r["status"] in ("ok", "end_time")):
             r["lu_over_iterative"] = lu[key] / r["time_per_solve_s"]
 
 
@@ -204,6 +284,17 @@ def run_krylov_bench(out: Path, quick: bool = False, nprocs: int = 2, configs: P
         say(f"[{tag}] {label}: {row['status']}, {row['solves']} solves, Krylov "
             f"{_fmt(row['krylov_mean'], '.1f')} per solve, {1e3 * row['time_per_solve_s']:.1f} ms "
             f"per solve")
+    developed = QUICK_DEVELOPED if quick else DEVELOPED
+    for h in developed.mesh_sizes:
+        cfg = load_case_config(configs, "rigid.yaml", (
+            f"geometry.mesh_size={h!r}", f"time.end_time={developed.end_time!r}",
+            "time.output_every=100000", "time.checkpoint_every=100000"))
+        new = developed_rows(cfg, out / "krylov" / tag / f"developed_{h * 100:g}cm", comm,
+                             developed.epsilons)
+        rows.extend(new)
+        for r in new[::2]:
+            say(f"[{tag}] developed {h * 100:g} cm, eps {r['epsilon']:g}: {r['status']}, "
+                f"Krylov {r['krylov_max']}, {1e3 * r['time_per_solve_s']:.1f} ms")
     if result_json is not None:
         if comm.rank == 0:
             Path(result_json).write_text(json.dumps({"rows": rows}, default=float))
@@ -222,19 +313,20 @@ def run_krylov_bench(out: Path, quick: bool = False, nprocs: int = 2, configs: P
 
 
 def format_krylov_table(rows: Sequence[dict]) -> str:
-    head = (f"{'solver':<10} {'np':>2} {'h cm':>5} {'dofs':>7} {'eps':>6} {'solves':>6} "
+    head = (f"{'kind':<11} {'solver':<10} {'np':>2} {'h cm':>5} {'dofs':>7} {'eps':>6} {'solves':>6} "
             f"{'its':>6} {'max':>4} {'setup ms':>8} {'solve ms':>8} {'ms/solve':>8} "
             f"{'LU/it':>6}  status")
     lines = ["", head, "-" * len(head)]
     for r in rows:
         lines.append(
-            f"{r['solver']:<10} {r['np']:>2} {100 * r['mesh_size']:>5g} {r['dofs']:>7} "
+            f"{r['kind']:<11} {r['solver']:<10} {r['np']:>2} {100 * r['mesh_size']:>5g} {r['dofs']:>7} "
             f"{r['epsilon']:>6.0e} {r['solves']:>6} {_fmt(r['krylov_mean'], '6.1f'):>6} "
             f"{r['krylov_max'] if r['krylov_max'] >= 0 else '-':>4} {1e3 * r['setup_s']:>8.2f} "
             f"{1e3 * r['solve_s']:>8.2f} {1e3 * r['time_per_solve_s']:>8.2f} "
             f"{_fmt(r['lu_over_iterative'], '6.2f'):>6}  {r['status']}")
-    lines.append("its/max: Krylov iterations per flow solve (mean/max); setup: factorization or "
-                 "pressure operators + AMG; LU/it: MUMPS time per solve / iterative time per solve")
+    lines.append("first_steps: the run to t = end time, per flow solve; developed: one solve "
+                 "of the state at t; its/max: Krylov iterations per solve (mean/max); setup: "
+                 "factorization or pressure operators + AMG; LU/it: MUMPS time / iterative time")
     return "\n".join(lines)
 
 

@@ -127,7 +127,7 @@ class RegularizedFlow:
         u_k, p_k = ufl.split(self.iterate)
         self._rho = rho = fem.Constant(mesh, compat.ScalarType(p.density))
         f = fem.Constant(mesh, np.array(p.body_force, dtype=compat.ScalarType))
-        self._eps = eps = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon))
+        self.epsilon = eps = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon))  # ε
         eps_f = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon_friction))
         # numerics.quadrature_degree q: the nonlinear terms (√, [·]_+, μ(I)) get degree q
         # instead of UFL's estimate (Drucker–Prager: 8 in cells, 17 on friction facets); the
@@ -162,20 +162,24 @@ class RegularizedFlow:
         self.system = self._make_system(a, L)
 
     def _make_solver(self):
-        """LU (kept across solves), or FGMRES + Schur fieldsplit (``linear_solver:
-        iterative``, ``solvers.iterative``) with its two pressure operators: the mass matrix
-        weighted by 2/ν (ν the secant viscosity of the iterate) and the Laplacian weighted
-        by Δt/ρ, with p = 0 on the free surface."""
+        """LU kept across solves, or ``iterative_solver()`` (``linear_solver: iterative``)."""
         s = self.settings
-        if s.linear_solver != "iterative":
-            return DirectSolver(self.comm, s.linear_solver, prefix="dpc_flow_",
-                                krylov=s.reuse_factorization)
+        if s.linear_solver == "iterative":
+            return self.iterative_solver(s.krylov_rtol, s.krylov_max_iterations)
+        return DirectSolver(self.comm, s.linear_solver, prefix="dpc_flow_",
+                            krylov=s.reuse_factorization)
+
+    def iterative_solver(self, rtol: float, max_iterations: int,
+                         prefix: str = "dpc_flow_") -> BlockSolver:
+        """FGMRES + Schur fieldsplit (``solvers.iterative``) with its two pressure operators
+        on the current iterate: the mass matrix weighted by 2/ν (ν the secant viscosity) and
+        the Laplacian weighted by Δt/ρ, with p = 0 on the free surface."""
         if self._has_tag(RIGHT):
             raise ValueError("linear_solver iterative: not available on a periodic layer")
         _, p = ufl.TrialFunctions(self.W)
         _, q = ufl.TestFunctions(self.W)
         u_k, p_k = ufl.split(self.iterate)
-        nu = self.params.rheology.secant_viscosity(u_k, p_k, self._eps)
+        nu = self.params.rheology.secant_viscosity(u_k, p_k, self.epsilon)
         dx = ufl.Measure("dx", domain=self.mesh, metadata={"quadrature_degree": 2})
         mass = 2.0 / nu * p * q * dx
         laplacian = self.dt / self._rho * ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx
@@ -186,8 +190,7 @@ class RegularizedFlow:
                                            ft.indices[ft.values == SURFACE])
         bcs = [fem.dirichletbc(fem.Function(Q), dofs, sub)]
         return BlockSolver(self.comm, self.W, self.velocity_dofs, self.pressure_dofs, mass,
-                           laplacian, bcs, prefix="dpc_flow_", rtol=s.krylov_rtol,
-                           max_it=s.krylov_max_iterations)
+                           laplacian, bcs, prefix=prefix, rtol=rtol, max_it=max_iterations)
 
     def _make_system(self, a, L):
         """The linear system of (a, L) with the Dirichlet conditions; periodic in x (slave
