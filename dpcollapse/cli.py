@@ -277,12 +277,23 @@ def compare(case: str, config: Path | None, out: Path | None, quick: bool) -> in
               help="Cost growth: time per step against unknowns on four mesh sizes.")
 @click.option("--configs", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Folder of the case configs (default: the repository's configs/).")
+@click.option("--krylov", is_flag=True,
+              help="Instead of the suite: iterative (FGMRES + AMG) against MUMPS flow solves on "
+                   "the rigid case, Krylov iterations and time per solve against mesh size and "
+                   "epsilon (krylov.csv).")
 @click.option("--result-json", type=click.Path(dir_okay=False, path_type=Path), default=None,
               hidden=True)
 def bench(cases: str | None, quick: bool, out: Path, nprocs: int, growth: bool,
-          configs: Path | None, result_json: Path | None) -> int:
+          configs: Path | None, krylov: bool, result_json: Path | None) -> int:
     """Benchmark suite: wall time, iterations, time split, memory, MPI speed-up, cost growth."""
     _setup_logging(quiet=True)
+    if krylov:
+        if cases:
+            raise click.UsageError("--krylov runs its own grid: --cases does not apply")
+        run = _lazy("dpcollapse.bench_krylov", "run_krylov_bench")
+        run(out, quick=quick, nprocs=nprocs, configs=configs, result_json=result_json,
+            echo=click.echo)
+        return 0
     parse = _lazy("dpcollapse.bench", "parse_cases")
     parse(cases, quick)   # a bad --cases is refused before anything runs
     run = _lazy("dpcollapse.bench", "run_bench")

@@ -272,7 +272,14 @@ class NumericsConfig(_Section):
     anderson_depth: Count = _f(
         5, "", "Anderson acceleration of the fixed point: history length m (0 = plain Picard)",
         ge=0, le=50)
-    linear_solver: Literal["mumps", "superlu_dist"] = _f("mumps", "", "Direct LU solver")
+    linear_solver: Literal["mumps", "superlu_dist", "iterative"] = _f(
+        "mumps", "", "Flow solver: direct LU (mumps, superlu_dist) or iterative (FGMRES, Schur "
+        "fieldsplit, AMG velocity block; regularized method, not on a periodic layer)")
+    krylov_rtol: Number = _f(
+        1.0e-10, "", "linear_solver iterative: relative residual of the FGMRES solve", gt=0, lt=1)
+    krylov_max_iterations: Count = _f(
+        500, "", "linear_solver iterative: most FGMRES iterations per solve (more: the step "
+        "is retried with half the time step)", ge=1)
     quadrature_degree: Count | None = _f(
         None, "", "Quadrature degree of the nonlinear terms (secant viscosity, convection, "
         "friction); null: UFL's estimate (8 in cells, 17 on friction facets)", ge=1, le=20)
@@ -283,6 +290,16 @@ class NumericsConfig(_Section):
         12.0, "deg", "Remesh when the smallest cell angle falls below this", gt=0, lt=60
     )
     ale: bool = Field(True, strict=True, description="Move the mesh (false: fixed domain)")
+
+    @model_validator(mode="after")
+    def _iterative(self) -> NumericsConfig:
+        if self.linear_solver == "iterative" and self.method != "regularized":
+            raise ConfigError(f"numerics.linear_solver = 'iterative': only with numerics.method "
+                              f"= regularized (not {self.method}); use mumps or superlu_dist")
+        if self.linear_solver == "iterative" and self.reuse_factorization:
+            raise ConfigError("numerics.reuse_factorization = true: needs a direct "
+                              "numerics.linear_solver (mumps or superlu_dist), not iterative")
+        return self
 
 
 class InitialConfig(_Section):
@@ -358,6 +375,9 @@ class Config(_Section):
             # iteration per step went on from t = 0.9 s to the 1.8 s cap instead of stopping
             raise ConfigError("numerics.extrapolate = true with time.adaptive = true: measured "
                               "to creep instead of coming to rest; must be false with time.adaptive = true")
+        if self.geometry.shape == "layer" and self.numerics.linear_solver == "iterative":
+            raise ConfigError("numerics.linear_solver = 'iterative': not available on a periodic "
+                              "layer (geometry.shape = layer); use mumps or superlu_dist")
         return self
 
     @property

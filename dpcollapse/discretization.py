@@ -58,7 +58,14 @@ def picard_settings(cfg: Config) -> PicardSettings:
     n = cfg.numerics
     return PicardSettings(n.epsilon, n.epsilon_friction, n.nonlinear_rtol, n.nonlinear_atol,
                           n.max_iterations, n.linear_solver, n.anderson_depth,
-                          n.reuse_factorization, n.quadrature_degree, n.extrapolate)
+                          n.reuse_factorization, n.quadrature_degree, n.extrapolate,
+                          n.krylov_rtol, n.krylov_max_iterations)
+
+
+def direct_solver(cfg: Config) -> str:
+    """The LU package of the small mesh-motion solves: mumps when the flow is iterative."""
+    n = cfg.numerics
+    return "mumps" if n.linear_solver == "iterative" else n.linear_solver
 
 
 def augmented_settings(cfg: Config) -> AugmentedSettings:
@@ -91,7 +98,7 @@ class Discretization:
         self.flow = make_flow(tagged, cfg)
         self.orientation = cell_orientation(mesh)
         self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
-                                 cfg.numerics.linear_solver) if cfg.numerics.ale else None
+                                 direct_solver(cfg)) if cfg.numerics.ale else None
         u, p = ufl.split(self.flow.solution)
         self._area = fem.form(1.0 * ufl.dx(domain=mesh))
         self._kinetic = fem.form(0.5 * cfg.material.density * ufl.inner(u, u) * ufl.dx)

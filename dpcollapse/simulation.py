@@ -154,6 +154,7 @@ class Simulation:
         self.step_sizes: list[float] = []
         self.ale_solves = 0
         self.factorizations = 0  # LU factorizations of the flow system (retired meshes)
+        self.krylov_iterations = 0  # Krylov iterations of the flow solves (retired meshes)
         self.dt_limit = math.inf
         self.courant = 0.0  # Courant number Δt·max_K |uⁿ|/h_K of the last step
         self.wall0 = time.perf_counter()
@@ -229,8 +230,10 @@ class Simulation:
                 f"{self.cfg.geometry.mesh_size:g} m somewhere — use a finer mesh or a shorter time.end_time")
 
     def _retire(self, disc: Discretization) -> None:
-        """Destroy a discretization, keeping the count of LU factorizations it did."""
+        """Destroy a discretization, keeping the counts of LU factorizations and Krylov
+        iterations it did."""
         self.factorizations += disc.flow.solver.factorizations
+        self.krylov_iterations += disc.flow.solver.krylov_iterations
         disc.destroy()
 
     def _rebuild(self, tagged: TaggedMesh) -> None:
@@ -420,6 +423,7 @@ class Simulation:
             "flow_solves": int(np.sum(its)) if its else 0,
             "flow_factorizations": self.factorizations + self.disc.flow.solver.factorizations,
             "mesh_velocity_factorizations": self.ale_solves,
+            "krylov_iterations": self.krylov_iterations + self.disc.flow.solver.krylov_iterations,
         }
         if error:
             summary["error"] = error
@@ -438,4 +442,8 @@ def run_simulation(cfg: Config, run_dir: Path, quiet: bool = False, resume: bool
                  "%d remeshes, %.1f s wall", summary["status"], summary["t"], summary["steps"],
                  summary["front"], summary["max_height"], summary["area_drift"], summary["remeshes"],
                  sim.timings["total"])
+        if summary["krylov_iterations"]:
+            log.info("%d flow solves, %d Krylov iterations (%.1f per solve)", summary["flow_solves"],
+                     summary["krylov_iterations"],
+                     summary["krylov_iterations"] / max(summary["flow_solves"], 1))
     return summary

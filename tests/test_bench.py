@@ -140,3 +140,37 @@ def test_harness_on_all_ranks(shared_tmp, comm):
     assert [(r["case"], r["np"]) for r in rows] == [("plug", str(comm.size))]
     assert sum(float(rows[0][f"pct_{p}"]) for p in PARTS) <= 100.0 + 1e-3
     assert float(rows[0]["overhead_ratio"]) >= 1.0
+
+
+def test_krylov_grid_quick(tmp_path, capsys):
+    """bench --krylov --quick: first steps, one row per (ε, solver) on the 4 cm mesh, Krylov
+    iterations for the iterative rows, the same Picard solves and front as MUMPS, the
+    LU/iterative ratio; then one solve per (ε, solver) of the developed state."""
+    from dpcollapse.bench_krylov import COLUMNS as KRYLOV_COLUMNS
+    from dpcollapse.bench_krylov import QUICK_DEVELOPED, QUICK_PLAN
+
+    assert main(["bench", "--krylov", "--quick", "--np", "0", "--out", str(tmp_path)]) == 0
+    assert "LU/it" in capsys.readouterr().out
+    header, rows = _rows(tmp_path / "krylov.csv")
+    assert tuple(header) == KRYLOV_COLUMNS
+    first = [r for r in rows if r["kind"] == "first_steps"]
+    assert [(r["solver"], float(r["epsilon"])) for r in first] == [
+        (s, e) for e in QUICK_PLAN.epsilons for s in QUICK_PLAN.solvers]
+    for it, lu in zip(first[::2], first[1::2]):
+        assert it["status"] == lu["status"] == "end_time"
+        assert int(it["solves"]) == int(lu["solves"]) > 0
+        assert 1 <= float(it["krylov_mean"]) <= int(it["krylov_max"]) <= 500
+        assert lu["krylov_mean"] == "" and float(it["lu_over_iterative"]) > 0
+        assert float(it["front"]) == pytest.approx(float(lu["front"]), abs=1e-9)
+    developed = [r for r in rows if r["kind"] == "developed"]
+    assert [(r["solver"], float(r["epsilon"])) for r in developed] == [
+        (s, e) for e in QUICK_DEVELOPED.epsilons for s in ("iterative", "mumps")]
+    for r in developed:
+        assert float(r["t"]) == pytest.approx(QUICK_DEVELOPED.end_time)
+        assert r["status"] == "ok" or r["status"].startswith("failed")
+        assert float(r["time_per_solve_s"]) > 0
+
+
+def test_krylov_grid_refuses_cases(tmp_path, capsys):
+    assert main(["bench", "--krylov", "--cases", "plug", "--out", str(tmp_path)]) == 2
+    assert "--cases does not apply" in capsys.readouterr().err

@@ -37,6 +37,7 @@ class DirectSolver:
             opts[f"{prefix}mat_mumps_icntl_24"] = 0
         self.ksp.setFromOptions()
         self.factorizations = 0
+        self.krylov_iterations = 0   # GMRES iterations in Krylov mode (0 with preonly)
 
     def set_operator(self, A: PETSc.Mat, refactor: bool = True) -> None:
         """Give a (re)assembled matrix; the next solve refactorizes it unless ``refactor``
@@ -49,6 +50,8 @@ class DirectSolver:
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
         self.ksp.solve(b, x)
+        if self.krylov:
+            self.krylov_iterations += self.ksp.getIterationNumber()
         reason = self.ksp.getConvergedReason()
         if reason < 0:
             raise RuntimeError(f"linear solve failed (PETSc reason {reason})")

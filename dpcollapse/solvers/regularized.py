@@ -20,9 +20,10 @@ from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.forms import friction, momentum
-from dpcollapse.geometry.mesher import BED, RIGHT, WALL, TaggedMesh
+from dpcollapse.geometry.mesher import BED, RIGHT, SURFACE, WALL, TaggedMesh
 from dpcollapse.solvers.anderson import Anderson
 from dpcollapse.solvers.assembly import LinearSystem
+from dpcollapse.solvers.iterative import BlockSolver
 from dpcollapse.solvers.linear import DirectSolver
 
 
@@ -53,11 +54,13 @@ class PicardSettings:
     rtol: float
     atol: float
     max_iterations: int
-    linear_solver: str = "mumps"
+    linear_solver: str = "mumps"   # mumps, superlu_dist (LU) or iterative (solvers.iterative)
     anderson_depth: int = 0    # 0: plain Picard; m > 0: Anderson acceleration of depth m
     reuse_factorization: bool = False  # one LU per step; later iterates: GMRES + stale LU
     quadrature_degree: int | None = None  # of the nonlinear terms; None: UFL's estimate
     extrapolate: bool = False  # first iterate extrapolated linearly from the last two steps
+    krylov_rtol: float = 1e-10  # linear_solver iterative: relative residual of FGMRES
+    krylov_max_iterations: int = 500
 
 
 @dataclass
@@ -108,8 +111,7 @@ class RegularizedFlow:
 
         self.dt = fem.Constant(mesh, compat.ScalarType(1e-3))
         self._build_forms()
-        self.solver = DirectSolver(self.comm, settings.linear_solver, prefix="dpc_flow_",
-                                   krylov=settings.reuse_factorization)
+        self.solver = self._make_solver()
         size_local = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
         self._owned_velocity = self.velocity_dofs[self.velocity_dofs < size_local]
         self._n_velocity = self.comm.allreduce(len(self._owned_velocity), op=MPI.SUM)
@@ -123,9 +125,9 @@ class RegularizedFlow:
         mesh, p = self.mesh, self.params
         (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         u_k, p_k = ufl.split(self.iterate)
-        rho = fem.Constant(mesh, compat.ScalarType(p.density))
+        self._rho = rho = fem.Constant(mesh, compat.ScalarType(p.density))
         f = fem.Constant(mesh, np.array(p.body_force, dtype=compat.ScalarType))
-        eps = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon))
+        self.epsilon = eps = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon))  # ε
         eps_f = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon_friction))
         # numerics.quadrature_degree q: the nonlinear terms (√, [·]_+, μ(I)) get degree q
         # instead of UFL's estimate (Drucker–Prager: 8 in cells, 17 on friction facets); the
@@ -158,6 +160,37 @@ class RegularizedFlow:
         a = sum(self.terms.values())
         L = momentum.gravity(rho, f, v) + momentum.previous_velocity(rho, self.dt, self.u_old, v)
         self.system = self._make_system(a, L)
+
+    def _make_solver(self):
+        """LU kept across solves, or ``iterative_solver()`` (``linear_solver: iterative``)."""
+        s = self.settings
+        if s.linear_solver == "iterative":
+            return self.iterative_solver(s.krylov_rtol, s.krylov_max_iterations)
+        return DirectSolver(self.comm, s.linear_solver, prefix="dpc_flow_",
+                            krylov=s.reuse_factorization)
+
+    def iterative_solver(self, rtol: float, max_iterations: int,
+                         prefix: str = "dpc_flow_") -> BlockSolver:
+        """FGMRES + Schur fieldsplit (``solvers.iterative``) with its two pressure operators
+        on the current iterate: the mass matrix weighted by 2/ν (ν the secant viscosity) and
+        the Laplacian weighted by Δt/ρ, with p = 0 on the free surface."""
+        if self._has_tag(RIGHT):
+            raise ValueError("linear_solver iterative: not available on a periodic layer")
+        _, p = ufl.TrialFunctions(self.W)
+        _, q = ufl.TestFunctions(self.W)
+        u_k, p_k = ufl.split(self.iterate)
+        nu = self.params.rheology.secant_viscosity(u_k, p_k, self.epsilon)
+        dx = ufl.Measure("dx", domain=self.mesh, metadata={"quadrature_degree": 2})
+        mass = 2.0 / nu * p * q * dx
+        laplacian = self.dt / self._rho * ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx
+        ft = self.tagged.facet_tags
+        sub = self.W.sub(1)
+        Q, _ = sub.collapse()
+        dofs = fem.locate_dofs_topological((sub, Q), self.mesh.topology.dim - 1,
+                                           ft.indices[ft.values == SURFACE])
+        bcs = [fem.dirichletbc(fem.Function(Q), dofs, sub)]
+        return BlockSolver(self.comm, self.W, self.velocity_dofs, self.pressure_dofs, mass,
+                           laplacian, bcs, prefix=prefix, rtol=rtol, max_it=max_iterations)
 
     def _make_system(self, a, L):
         """The linear system of (a, L) with the Dirichlet conditions; periodic in x (slave
