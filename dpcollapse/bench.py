@@ -403,25 +403,30 @@ def _mpi_env(nprocs: int) -> dict:
     return env
 
 
-def run_mpi(nprocs: int, cases: Sequence[str], quick: bool, out: Path, configs: Path,
-            echo: Callable[[str], None]) -> list[dict]:
-    """Rerun ``cases`` under ``mpirun -n nprocs`` and return their rows."""
+def rerun_under_mpi(nprocs: int, bench_args: Sequence[str], what: str,
+                    echo: Callable[[str], None]) -> list[dict]:
+    """Run ``dpcollapse bench <bench_args> --np 0 --result-json …`` under
+    ``mpirun -n nprocs`` and return the rows it wrote; a failed rerun is an error."""
     launcher = shutil.which("mpirun") or shutil.which("mpiexec")
     if launcher is None:
         raise DpcollapseError("--np: neither mpirun nor mpiexec is on PATH")
     with tempfile.TemporaryDirectory(prefix="dpcollapse-bench-") as tmp:
         result = Path(tmp) / "result.json"
         cmd = [launcher, "-n", str(nprocs), sys.executable, "-m", "dpcollapse.cli", "bench",
-               "--cases", ",".join(cases), "--out", str(out), "--configs", str(configs),
-               "--np", "0", "--no-growth", "--result-json", str(result)]
-        if quick:
-            cmd.append("--quick")
-        echo(f"rerunning {', '.join(cases)} under mpirun -n {nprocs}")
-        proc = subprocess.run(cmd, env=_mpi_env(nprocs))
+               *bench_args, "--np", "0", "--result-json", str(result)]
+        echo(f"rerunning {what} under mpirun -n {nprocs}")
+        proc = subprocess.run(cmd, env=_mpi_env(nprocs), check=False)
         if proc.returncode != 0 or not result.is_file():
             raise DpcollapseError(f"the mpirun -n {nprocs} rerun failed (exit {proc.returncode}): "
                                   + " ".join(cmd))
         return json.loads(result.read_text())["rows"]
+
+
+def run_mpi(nprocs: int, cases: Sequence[str], quick: bool, out: Path, configs: Path,
+            echo: Callable[[str], None]) -> list[dict]:
+    """Rerun ``cases`` under ``mpirun -n nprocs`` and return their rows."""
+    args = ["--cases", ",".join(cases), "--out", str(out), "--configs", str(configs), "--no-growth"]
+    return rerun_under_mpi(nprocs, args + (["--quick"] if quick else []), ", ".join(cases), echo)
 
 
 # ---------------------------------------------------------------------- driver

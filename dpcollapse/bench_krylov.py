@@ -24,10 +24,6 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
-import subprocess
-import sys
-import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -39,10 +35,10 @@ from dpcollapse.bench import (
     _csv_value,
     _fmt,
     _global_dofs,
-    _mpi_env,
     _simulation_class,
     default_configs_dir,
     load_case_config,
+    rerun_under_mpi,
 )
 from dpcollapse.errors import DpcollapseError, Interrupted
 
@@ -232,20 +228,8 @@ def _warm_up(configs: Path, out: Path, comm) -> None:
 def run_mpi_grid(nprocs: int, quick: bool, out: Path, configs: Path,
                  echo: Callable[[str], None]) -> list[dict]:
     """Rerun the grid under ``mpirun -n nprocs``; its rows."""
-    launcher = shutil.which("mpirun") or shutil.which("mpiexec")
-    if launcher is None:
-        raise DpcollapseError("--np: neither mpirun nor mpiexec is on PATH")
-    with tempfile.TemporaryDirectory(prefix="dpcollapse-krylov-") as tmp:
-        result = Path(tmp) / "result.json"
-        cmd = [launcher, "-n", str(nprocs), sys.executable, "-m", "dpcollapse.cli", "bench",
-               "--krylov", "--out", str(out), "--configs", str(configs), "--np", "0",
-               "--result-json", str(result)] + (["--quick"] if quick else [])
-        echo(f"rerunning the Krylov grid under mpirun -n {nprocs}")
-        proc = subprocess.run(cmd, env=_mpi_env(nprocs), check=False)
-        if proc.returncode != 0 or not result.is_file():
-            raise DpcollapseError(f"the mpirun -n {nprocs} rerun failed (exit {proc.returncode}): "
-                                  + " ".join(cmd))
-        return json.loads(result.read_text())["rows"]
+    args = ["--krylov", "--out", str(out), "--configs", str(configs)]
+    return rerun_under_mpi(nprocs, args + (["--quick"] if quick else []), "the Krylov grid", echo)
 
 
 def add_ratios(rows: Sequence[dict]) -> None:
