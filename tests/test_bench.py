@@ -159,7 +159,9 @@ def test_krylov_grid_quick(tmp_path, capsys):
     for it, lu in zip(first[::2], first[1::2]):
         assert it["status"] == lu["status"] == "end_time"
         assert int(it["solves"]) == int(lu["solves"]) > 0
-        assert 1 <= float(it["krylov_mean"]) <= int(it["krylov_max"]) <= 500
+        # measured at 4 cm: 37–40 per solve, at most 76; a preconditioner that stopped
+        # working would need hundreds (the cap is 500)
+        assert 1 <= float(it["krylov_mean"]) <= int(it["krylov_max"]) <= 150
         assert lu["krylov_mean"] == "" and float(it["lu_over_iterative"]) > 0
         assert float(it["front"]) == pytest.approx(float(lu["front"]), abs=1e-9)
     developed = [r for r in rows if r["kind"] == "developed"]
@@ -167,7 +169,9 @@ def test_krylov_grid_quick(tmp_path, capsys):
         (s, e) for e in QUICK_DEVELOPED.epsilons for s in ("iterative", "mumps")]
     for r in developed:
         assert float(r["t"]) == pytest.approx(QUICK_DEVELOPED.end_time)
-        assert r["status"] == "ok" or r["status"].startswith("failed")
+        assert r["status"] == "ok"   # at 4 cm the developed state converges (measured 44–46)
+        if r["solver"] == "iterative":
+            assert 1 <= float(r["krylov_mean"]) <= 150
         assert float(r["time_per_solve_s"]) > 0
 
 
