@@ -11,7 +11,7 @@ from dpcollapse import compat
 from dpcollapse.ale.quality import max_safe_step, min_angles, signed_areas
 from dpcollapse.forms.mesh_velocity import mesh_velocity_forms
 from dpcollapse.geometry.mesher import BED, SURFACE, WALL
-from dpcollapse.solvers.assembly import LinearSystem
+from dpcollapse.solvers.assembly import LinearSystem, zero_dirichlet
 from dpcollapse.solvers.linear import DirectSolver
 
 
@@ -49,16 +49,9 @@ class MeshMotion:
         self._bed_nodes = _tagged_nodes(mesh, ft, BED)
 
     def _slip_bcs(self, Vw):
-        fdim = self.mesh.topology.dim - 1
+        """w·n = 0 on the bed (w_y) and the wall (w_x)."""
         ft = self.flow.tagged.facet_tags
-        bcs = []
-        for tag, comp in ((BED, 1), (WALL, 0)):
-            facets = ft.indices[ft.values == tag]
-            sub = Vw.sub(comp)
-            Vc, _ = sub.collapse()
-            dofs = fem.locate_dofs_topological((sub, Vc), fdim, facets)
-            bcs.append(fem.dirichletbc(fem.Function(Vc), dofs, sub))
-        return bcs
+        return [zero_dirichlet(Vw.sub(comp), ft, tag) for tag, comp in ((BED, 1), (WALL, 0))]
 
     def compute(self) -> None:
         """Solve for w from the accepted velocity uⁿ on the current mesh."""

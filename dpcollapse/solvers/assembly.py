@@ -7,6 +7,15 @@ from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
 
 
+def zero_dirichlet(sub: fem.FunctionSpace, facet_tags, tag: int):
+    """The condition (sub-space component) = 0 on the facets tagged ``tag``."""
+    mesh = sub.mesh
+    facets = facet_tags.indices[facet_tags.values == tag]
+    collapsed, _ = sub.collapse()
+    dofs = fem.locate_dofs_topological((sub, collapsed), mesh.topology.dim - 1, facets)
+    return fem.dirichletbc(fem.Function(collapsed), dofs, sub)
+
+
 class LinearSystem:
     """A matrix and a right-hand side built once and reassembled in place."""
 

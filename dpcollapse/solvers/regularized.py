@@ -22,7 +22,7 @@ from dpcollapse import compat
 from dpcollapse.forms import friction, momentum
 from dpcollapse.geometry.mesher import BED, RIGHT, SURFACE, WALL, TaggedMesh
 from dpcollapse.solvers.anderson import Anderson
-from dpcollapse.solvers.assembly import LinearSystem
+from dpcollapse.solvers.assembly import LinearSystem, zero_dirichlet
 from dpcollapse.solvers.iterative import BlockSolver
 from dpcollapse.solvers.linear import DirectSolver
 
@@ -104,6 +104,8 @@ class RegularizedFlow:
         self.Vw = compat.vector_space(mesh, 1)
 
         self._contraction = 0.0   # last measured contraction of the fixed point (extrapolate)
+        self._history = None      # (xₙ₋₁, Δt_prev) of the last accepted step (extrapolate)
+        self._pending_history = None
         self.solution = fem.Function(self.W, name="solution")   # (u^{n+1,k+1}, p^{n+1,k+1})
         self.iterate = fem.Function(self.W, name="iterate")     # (u^{n+1,k}, p^{n+1,k})
         self.u_old = fem.Function(self.V, name="u_old")         # uⁿ
@@ -183,12 +185,7 @@ class RegularizedFlow:
         dx = ufl.Measure("dx", domain=self.mesh, metadata={"quadrature_degree": 2})
         mass = 2.0 / nu * p * q * dx
         laplacian = self.dt / self._rho * ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx
-        ft = self.tagged.facet_tags
-        sub = self.W.sub(1)
-        Q, _ = sub.collapse()
-        dofs = fem.locate_dofs_topological((sub, Q), self.mesh.topology.dim - 1,
-                                           ft.indices[ft.values == SURFACE])
-        bcs = [fem.dirichletbc(fem.Function(Q), dofs, sub)]
+        bcs = [zero_dirichlet(self.W.sub(1), self.tagged.facet_tags, SURFACE)]
         return BlockSolver(self.comm, self.W, self.velocity_dofs, self.pressure_dofs, mass,
                            laplacian, bcs, prefix=prefix, rtol=rtol, max_it=max_iterations)
 
@@ -210,17 +207,10 @@ class RegularizedFlow:
     def _dirichlet_bcs(self):
         """No penetration u·n = 0 exactly: u_y = 0 on the bed (y = 0), u_x = 0 on the wall
         (x = 0); or no slip u = 0 on the bed."""
-        fdim = self.mesh.topology.dim - 1
-        ft = self.tagged.facet_tags
-        bcs = []
+        velocity = self.W.sub(0)
         constrained = [(BED, None if self.params.bed_no_slip else 1), (WALL, 0)]
-        for tag, comp in constrained:
-            facets = ft.indices[ft.values == tag]
-            sub = self.W.sub(0) if comp is None else self.W.sub(0).sub(comp)
-            Vc, _ = sub.collapse()
-            dofs = fem.locate_dofs_topological((sub, Vc), fdim, facets)
-            bcs.append(fem.dirichletbc(fem.Function(Vc), dofs, sub))
-        return bcs
+        return [zero_dirichlet(velocity if comp is None else velocity.sub(comp), self.tagged.facet_tags, tag)
+                for tag, comp in constrained]
 
     def set_velocity(self, profile) -> None:
         """Set uⁿ and the first iterate to ``profile(x) -> (2, n)`` (initial condition)."""
@@ -244,7 +234,7 @@ class RegularizedFlow:
         """uⁿ ← u^{n+1}: the solution becomes the old state and the first iterate."""
         self.iterate.x.array[:] = self.solution.x.array
         self.u_old.x.array[:] = self.solution.x.array[self.velocity_dofs]
-        self._history = getattr(self, "_pending_history", None)
+        self._history = self._pending_history
 
     def multiplier_functions(self) -> dict:
         """Fields besides (u, p) that a remesh or checkpoint must carry: none here."""
@@ -265,7 +255,7 @@ class RegularizedFlow:
         s = self.settings
         self.dt.value = dt
         start = self.iterate.x.array.copy()
-        history = getattr(self, "_history", None)
+        history = self._history
         extrapolated = s.extrapolate and history is not None
         if extrapolated:
             # first iterate x_{n+1}⁰ = xₙ + (Δt/Δt_prev)(xₙ − x_{n−1}): O(Δt²) from the solution
