@@ -38,6 +38,8 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
 
+from dpcollapse import compat
+
 #: Defaults of the outer Krylov solve: relative residual and iteration cap.
 RTOL = 1e-10
 MAX_IT = 500
@@ -139,7 +141,7 @@ class _PressureBlock:
 
     def __init__(self, form, bcs, is_p: PETSc.IS):
         self.form, self.bcs, self.is_p = fem.form(form), bcs, is_p
-        self._full = fem_petsc.create_matrix(self.form)
+        self._full = compat.create_matrix(self.form)
         self.block = None
 
     def assemble(self) -> PETSc.Mat:
