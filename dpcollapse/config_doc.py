@@ -136,15 +136,19 @@ def _cell(text: str) -> str:
     return " ".join(text.split()).replace("|", "\\|")
 
 
-def _default(field: FieldInfo) -> str:
-    if field.default is not PydanticUndefined:
-        return _value(field.default)
-    if field.default_factory is not None:
+def _default_value(field: FieldInfo) -> Any:
+    """The field's default (a factory called), or PydanticUndefined when it has none."""
+    if field.default is PydanticUndefined and field.default_factory is not None:
         try:
-            return _value(field.default_factory())  # type: ignore[call-arg]
+            return field.default_factory()  # type: ignore[call-arg]
         except TypeError:  # a factory that takes the validated data
             return "(computed)"
-    return "required"
+    return field.default
+
+
+def _default(field: FieldInfo) -> str:
+    value = _default_value(field)
+    return "required" if value is PydanticUndefined else _value(value)
 
 
 def _unit(field: FieldInfo) -> str:
@@ -209,7 +213,8 @@ def _allowed(field: FieldInfo) -> str:
 
 
 # ----------------------------------------------------------------------------- unions
-def _discriminator(field: FieldInfo, meta: Sequence[Any], variants: list[type[BaseModel]]) -> str | None:
+def _discriminator(field: FieldInfo, meta: Sequence[Any],
+                   variants: list[type[BaseModel]]) -> str | None:
     """The tag field of a union of models: declared discriminator, else a Literal shared by all."""
     for d in [field.discriminator, *(m.discriminator for m in meta if isinstance(m, FieldInfo))]:
         d = getattr(d, "discriminator", d)  # a pydantic Discriminator object
@@ -235,15 +240,8 @@ def _tag(variant: type[BaseModel], disc: str | None) -> str:
 
 def _union_default(field: FieldInfo, disc: str | None) -> str:
     """The default of a union of models, named by its tag."""
-    value = field.default
-    if value is PydanticUndefined and field.default_factory is not None:
-        try:
-            value = field.default_factory()  # type: ignore[call-arg]
-        except TypeError:
-            return "(computed)"
-    if isinstance(value, BaseModel):
-        return f"`{_tag(type(value), disc)}`"
-    return "required" if value is PydanticUndefined else _value(value)
+    value = _default_value(field)
+    return f"`{_tag(type(value), disc)}`" if isinstance(value, BaseModel) else _default(field)
 
 
 # ----------------------------------------------------------------------------- rendering
