@@ -25,7 +25,7 @@ cell-local ρh²/Δt term) needed 193 (1 cm) and 317 (0.5 cm) iterations on the 
 of a collapse (p = 0, ν = 2η: the inertial limit), against 19 and 15 with L (lower
 factorization). M_ν and L are reassembled from their UFL forms at every ``set_operator``.
 
-Limit (measured, README "Iterative solver"): with an exact velocity solve the Schur
+Limit (measured, docs/benchmarks/2026-11-24-iterative-solver.md): with an exact velocity solve the Schur
 approximation takes 16 iterations whatever ε, but the AMG V-cycle on A degrades with the
 viscosity contrast of a developed flow (flowing ν ~ 10–100 Pa s next to rigid ν ~ κ/ε):
 at ε = 1e-6 FGMRES does not converge in 500 iterations there.
