@@ -1,0 +1,197 @@
+"""One explicit finite-volume step of the Savage–Hutter equations with well-balanced friction.
+
+Conservative variables U = (h, q = h ū) on cells of width Δx, flux and sources (x along the bed
+inclined at θ, SI units)::
+
+    F(U) = (q, α q²/h + g cosθ h²/2),    S = (0, g h sinθ − g cosθ h μ_eff sign(ū))
+
+Fluxes: HLL with the wave speeds λ± = α ū ± √(α(α−1) ū² + g cosθ h) (eigenvalues of ∂F/∂U),
+s_L = min(λ−_L, λ−_R, 0), s_R = max(λ+_L, λ+_R, 0), and the dry-bed speeds ū_L + 2 c_L (right
+cell dry) / ū_R − 2 c_R (left cell dry), c = √(g cosθ h). With s_L ≤ ū ≤ s_R the update of h is
+a combination of h_{i−1}, h_i, h_{i+1} with non-negative coefficients when
+Δt ≤ Δx / a_i, a_i = s_R(ū_i − s_L)/(s_R − s_L)|_{i+½} + (−s_L)(s_R − ū_i)/(s_R − s_L)|_{i−½}:
+``step_bound`` returns that bound, so h ≥ 0 (up to round-off, clipped) at any front.
+
+Gravity along the slope is split between the two half cells of each interface, so that the
+update of cell i reads, with λ = Δt/Δx::
+
+    h_i* = h_i − λ (F^h_{i+½} − F^h_{i−½})
+    q_i* = q_i − λ (G^L_{i+½} − G^R_{i−½})
+    G^L = F^q − g sinθ h_L Δx/2,   G^R = F^q + g sinθ h_R Δx/2          (a moving interface)
+
+Well balance (friction in the reconstruction). An interface whose two cells are at rest
+(q = 0) and whose surface step obeys
+
+    |h_R − h_L − Δx tanθ| ≤ μ_static Δx,   μ_static = min over the two cells of μ_b(Ī=0) + μ_w h/w
+
+is *locked*: the net force of pressure and gravity on its two half cells, −g cosθ h̄ (Δh −
+Δx tanθ) with h̄ = (h_L + h_R)/2 (what the HLL flux at rest delivers), is within the static
+friction μ_static g cosθ h̄ Δx of those half cells, so friction holds it. A locked interface
+passes no mass and returns each cell its own hydrostatic thrust::
+
+    F^h = 0,   G^L = g cosθ h_L²/2,   G^R = g cosθ h_R²/2
+
+It is hydrostatic reconstruction on the "apparent topography" of friction: the friction
+flattens the apparent surface across the interface, so the reconstructed depths on both sides
+are equal and the HLL flux of two equal states at rest is exactly this. A cell whose two
+interfaces are locked gets h* = h and q* = 0 bit for bit, whatever Δt: a heap whose surface
+slope is within the friction keeps its shape and ū = 0 to round-off, forever.
+
+Friction of moving cells (and of cells at rest next to a moving interface) is then applied
+implicitly in the speed (``friction.implicit_speed``)::
+
+    h^{n+1} = h*,   |ū^{n+1}| = max(0, v),  v + Δt g cosθ μ_eff(h^{n+1}, v) = |q*|/h^{n+1},
+    sign ū^{n+1} = sign q*
+
+which stops a cell exactly (q^{n+1} = 0, not a small number) when its momentum after the fluxes
+and gravity, |q*| (so the flux imbalance is part of the driving force), is within the largest
+friction impulse Δt g cosθ μ_static h^{n+1}; friction never reverses the flow.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+__all__ = ["InterfaceTerms", "Physics", "extend_with_ghosts", "interface_terms", "update"]
+
+BOUNDARY_KINDS = ("wall", "open")
+
+
+@dataclass(frozen=True)
+class Physics:
+    """Parameters the step needs.
+
+    g [m/s²]; theta [rad] the bed slope (x down the slope for θ > 0); alpha the shape factor α
+    (1 plug flow, 5/4 Bagnold profile); basal a ``friction`` law; side_wall a
+    ``SideWallFriction`` or None; h_dry [m]: thinner cells carry no momentum (ū = 0)."""
+
+    g: float
+    theta: float
+    alpha: float
+    basal: object
+    side_wall: object = None
+    h_dry: float = 1e-10
+
+    @property
+    def g_cos(self) -> float:
+        """g cosθ [m/s²]: the normal gravity (pressure and friction)."""
+        return self.g * math.cos(self.theta)
+
+    @property
+    def g_sin(self) -> float:
+        """g sinθ [m/s²]: the driving gravity along the slope."""
+        return self.g * math.sin(self.theta)
+
+    def static_friction(self, h):
+        """μ_static(h) = μ_b(Ī = 0) + μ_w h/w [-]: the largest friction coefficient at rest."""
+        mu = self.basal.static(h)
+        if self.side_wall is not None:
+            mu = mu + self.side_wall.coefficient(h)
+        return mu
+
+
+class InterfaceTerms(NamedTuple):
+    """Per-interface quantities of one step (N + 1 interfaces for N cells)."""
+
+    mass_flux: np.ndarray     # F^h [m²/s]
+    left_flux: np.ndarray     # G^L [m³/s²]: momentum flux seen by the left cell
+    right_flux: np.ndarray    # G^R [m³/s²]: momentum flux seen by the right cell
+    locked: np.ndarray        # bool: interface held by friction
+    dt_max: float             # [s] largest Δt allowed by the CFL number and positivity of h
+
+
+def extend_with_ghosts(h, q, left: str, right: str):
+    """(h, q) with one ghost cell on each side: "wall" mirrors (h, −q) (reflective wall or
+    symmetry plane), "open" copies (h, q) (zero-gradient outflow)."""
+    he = np.empty(h.size + 2)
+    qe = np.empty(q.size + 2)
+    he[1:-1] = h
+    qe[1:-1] = q
+    he[0], he[-1] = h[0], h[-1]
+    qe[0] = -q[0] if left == "wall" else q[0]
+    qe[-1] = -q[-1] if right == "wall" else q[-1]
+    return he, qe
+
+
+def velocity(h, q, h_dry):
+    """ū = q/h where h > h_dry, else 0 [m/s]."""
+    wet = h > h_dry
+    return np.where(wet, q / np.where(wet, h, 1.0), 0.0)
+
+
+def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
+                    right: str) -> InterfaceTerms:
+    """HLL fluxes, gravity split, friction locking and the admissible Δt for state (h, q)."""
+    he, qe = extend_with_ghosts(h, q, left, right)
+    ue = velocity(he, qe, phys.h_dry)
+    g_cos, alpha = phys.g_cos, phys.alpha
+    c2 = g_cos * he
+    spread = np.sqrt(alpha * (alpha - 1.0) * ue * ue + c2) if alpha != 1.0 else np.sqrt(c2)
+    lam_minus = alpha * ue - spread
+    lam_plus = alpha * ue + spread
+    hl, hr = he[:-1], he[1:]
+    ql, qr = qe[:-1], qe[1:]
+    ul, ur = ue[:-1], ue[1:]
+    s_l = np.minimum(np.minimum(lam_minus[:-1], lam_minus[1:]), 0.0)
+    s_r = np.maximum(np.maximum(lam_plus[:-1], lam_plus[1:]), 0.0)
+    dry_r = hr <= phys.h_dry
+    dry_l = hl <= phys.h_dry
+    if dry_r.any() or dry_l.any():
+        c = np.sqrt(c2)
+        s_r = np.where(dry_r, np.maximum(s_r, ul + 2.0 * c[:-1]), s_r)
+        s_l = np.where(dry_l, np.minimum(s_l, ur - 2.0 * c[1:]), s_l)
+    width = s_r - s_l
+    inv_width = 1.0 / np.where(width > 0.0, width, 1.0)
+    pressure = 0.5 * g_cos * he * he
+    momentum_flux = alpha * qe * ue + pressure
+    prod = s_l * s_r
+    mass_flux = (s_r * ql - s_l * qr + prod * (hr - hl)) * inv_width
+    mom_flux = (s_r * momentum_flux[:-1] - s_l * momentum_flux[1:] + prod * (qr - ql)) * inv_width
+
+    # Friction locking (module docstring).
+    mu_static = phys.static_friction(he)
+    mu_face = np.minimum(mu_static[:-1], mu_static[1:])
+    drive = np.abs(hr - hl - dx * math.tan(phys.theta))
+    locked = (ql == 0.0) & (qr == 0.0) & (drive <= mu_face * dx)
+
+    half_gravity = 0.5 * phys.g_sin * dx
+    left_flux = np.where(locked, pressure[:-1], mom_flux - half_gravity * hl)
+    right_flux = np.where(locked, pressure[1:], mom_flux + half_gravity * hr)
+    mass_flux[locked] = 0.0
+    if left == "wall":
+        mass_flux[0] = 0.0
+    if right == "wall":
+        mass_flux[-1] = 0.0
+
+    # Δt: CFL on the fastest wave, and positivity of h (coefficients of h_i ≥ 0).
+    fastest = max(float(np.max(s_r)), float(-np.min(s_l)))
+    out_right = np.where(locked, 0.0, s_r * (ul - s_l) * inv_width)[1:]   # face i+½ of cell i
+    out_left = np.where(locked, 0.0, -s_l * (s_r - ur) * inv_width)[:-1]  # face i−½ of cell i
+    outflow_rate = float(np.max(out_right + out_left))
+    dt_max = math.inf
+    if fastest > 0.0:
+        dt_max = cfl * dx / fastest
+    if outflow_rate > 0.0:
+        dt_max = min(dt_max, dx / outflow_rate)
+    return InterfaceTerms(mass_flux, left_flux, right_flux, locked, dt_max)
+
+
+def update(h, q, terms: InterfaceTerms, phys: Physics, dx: float, dt: float):
+    """(h^{n+1}, q^{n+1}): the conservative update then the implicit friction (module docstring).
+
+    Returns the new arrays; h is clipped at 0 (round-off of a cell emptied by the step)."""
+    ratio = dt / dx
+    h_new = h - ratio * (terms.mass_flux[1:] - terms.mass_flux[:-1])
+    np.maximum(h_new, 0.0, out=h_new)
+    q_star = q - ratio * (terms.left_flux[1:] - terms.right_flux[:-1])
+    wet = h_new > phys.h_dry
+    h_safe = np.where(wet, h_new, 1.0)
+    speed_pred = np.abs(q_star) / h_safe
+    extra = phys.side_wall.coefficient(h_safe) if phys.side_wall is not None else 0.0
+    speed = phys.basal.implicit_speed(speed_pred, h_safe, dt * phys.g_cos, extra)
+    q_new = np.where(wet, np.copysign(speed, q_star) * h_new, 0.0)
+    return h_new, q_new
