@@ -56,7 +56,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["InterfaceTerms", "Physics", "extend_with_ghosts", "interface_terms", "update"]
+__all__ = ["InterfaceTerms", "Physics", "extend_with_ghosts", "interface_terms", "minmod_faces",
+           "update"]
 
 BOUNDARY_KINDS = ("wall", "open")
 
@@ -67,7 +68,9 @@ class Physics:
 
     g [m/s²]; theta [rad] the bed slope (x down the slope for θ > 0); alpha the shape factor α
     (1 plug flow, 5/4 Bagnold profile); basal a ``friction`` law; side_wall a
-    ``SideWallFriction`` or None; h_dry [m]: thinner cells carry no momentum (ū = 0)."""
+    ``SideWallFriction`` or None; h_dry [m]: thinner cells carry no momentum (ū = 0);
+    well_balanced: lock interfaces held by friction (False gives the plain split
+    ū ← max(|ū| − μ g cosθ Δt, 0) sign ū after the fluxes, kept only to show that it creeps)."""
 
     g: float
     theta: float
@@ -75,6 +78,7 @@ class Physics:
     basal: object
     side_wall: object = None
     h_dry: float = 1e-10
+    well_balanced: bool = True  # False: no locking (the plain split, for comparison only)
 
     @property
     def g_cos(self) -> float:
@@ -123,40 +127,72 @@ def velocity(h, q, h_dry):
     return np.where(wet, q / np.where(wet, h, 1.0), 0.0)
 
 
+def minmod_faces(v):
+    """(v⁻, v⁺): values at the left and right faces of every cell of the ghost-extended array v
+    from the minmod slope σ_i = minmod(v_i − v_{i−1}, v_{i+1} − v_i), v^± = v_i ± σ_i/2 (σ = 0 in
+    the ghost cells). Face values stay between neighbouring cell values (h⁻, h⁺ ≥ 0)."""
+    back = v[1:-1] - v[:-2]
+    ahead = v[2:] - v[1:-1]
+    slope = np.zeros_like(v)
+    slope[1:-1] = np.where(back * ahead > 0.0,
+                           np.copysign(np.minimum(np.abs(back), np.abs(ahead)), back), 0.0)
+    return v - 0.5 * slope, v + 0.5 * slope
+
+
 def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
-                    right: str) -> InterfaceTerms:
-    """HLL fluxes, gravity split, friction locking and the admissible Δt for state (h, q)."""
+                    right: str, order: int = 1) -> InterfaceTerms:
+    """HLL fluxes, gravity split, friction locking and the admissible Δt for state (h, q).
+
+    order 1: the interface states are the cell values; order 2: MUSCL, minmod-limited h and ū
+    at the faces, q = h ū there (the locking test and the gravity split use the cell values,
+    so the rest states are the same as at order 1)."""
     he, qe = extend_with_ghosts(h, q, left, right)
     ue = velocity(he, qe, phys.h_dry)
     g_cos, alpha = phys.g_cos, phys.alpha
-    c2 = g_cos * he
-    spread = np.sqrt(alpha * (alpha - 1.0) * ue * ue + c2) if alpha != 1.0 else np.sqrt(c2)
-    lam_minus = alpha * ue - spread
-    lam_plus = alpha * ue + spread
-    hl, hr = he[:-1], he[1:]
-    ql, qr = qe[:-1], qe[1:]
-    ul, ur = ue[:-1], ue[1:]
-    s_l = np.minimum(np.minimum(lam_minus[:-1], lam_minus[1:]), 0.0)
-    s_r = np.maximum(np.maximum(lam_plus[:-1], lam_plus[1:]), 0.0)
+    if order == 1:
+        hl, hr = he[:-1], he[1:]
+        ql, qr = qe[:-1], qe[1:]
+        ul, ur = ue[:-1], ue[1:]
+    else:
+        h_minus, h_plus = minmod_faces(he)
+        u_minus, u_plus = minmod_faces(ue)
+        hl, hr = h_plus[:-1], h_minus[1:]
+        ul = np.where(hl > phys.h_dry, u_plus[:-1], 0.0)
+        ur = np.where(hr > phys.h_dry, u_minus[1:], 0.0)
+        ql, qr = hl * ul, hr * ur
+
+    def speeds(hf, uf):
+        c2 = g_cos * hf
+        spread = np.sqrt(alpha * (alpha - 1.0) * uf * uf + c2) if alpha != 1.0 else np.sqrt(c2)
+        return alpha * uf - spread, alpha * uf + spread
+
+    lm_l, lp_l = speeds(hl, ul)
+    lm_r, lp_r = speeds(hr, ur)
+    s_l = np.minimum(np.minimum(lm_l, lm_r), 0.0)
+    s_r = np.maximum(np.maximum(lp_l, lp_r), 0.0)
     dry_r = hr <= phys.h_dry
     dry_l = hl <= phys.h_dry
     if dry_r.any() or dry_l.any():
-        c = np.sqrt(c2)
-        s_r = np.where(dry_r, np.maximum(s_r, ul + 2.0 * c[:-1]), s_r)
-        s_l = np.where(dry_l, np.minimum(s_l, ur - 2.0 * c[1:]), s_l)
+        s_r = np.where(dry_r, np.maximum(s_r, ul + 2.0 * np.sqrt(g_cos * hl)), s_r)
+        s_l = np.where(dry_l, np.minimum(s_l, ur - 2.0 * np.sqrt(g_cos * hr)), s_l)
     width = s_r - s_l
     inv_width = 1.0 / np.where(width > 0.0, width, 1.0)
-    pressure = 0.5 * g_cos * he * he
-    momentum_flux = alpha * qe * ue + pressure
+    flux_l = alpha * ql * ul + 0.5 * g_cos * hl * hl
+    flux_r = alpha * qr * ur + 0.5 * g_cos * hr * hr
     prod = s_l * s_r
     mass_flux = (s_r * ql - s_l * qr + prod * (hr - hl)) * inv_width
-    mom_flux = (s_r * momentum_flux[:-1] - s_l * momentum_flux[1:] + prod * (qr - ql)) * inv_width
+    mom_flux = (s_r * flux_l - s_l * flux_r + prod * (qr - ql)) * inv_width
+    pressure = 0.5 * g_cos * he * he
+    hl, hr = he[:-1], he[1:]          # cell values from here on
+    ql, qr = qe[:-1], qe[1:]
 
     # Friction locking (module docstring).
     mu_static = phys.static_friction(he)
     mu_face = np.minimum(mu_static[:-1], mu_static[1:])
     drive = np.abs(hr - hl - dx * math.tan(phys.theta))
     locked = (ql == 0.0) & (qr == 0.0) & (drive <= mu_face * dx)
+    if not phys.well_balanced:
+        locked[:] = False
 
     half_gravity = 0.5 * phys.g_sin * dx
     left_flux = np.where(locked, pressure[:-1], mom_flux - half_gravity * hl)
@@ -171,7 +207,10 @@ def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
     fastest = max(float(np.max(s_r)), float(-np.min(s_l)))
     out_right = np.where(locked, 0.0, s_r * (ul - s_l) * inv_width)[1:]   # face i+½ of cell i
     out_left = np.where(locked, 0.0, -s_l * (s_r - ur) * inv_width)[:-1]  # face i−½ of cell i
-    outflow_rate = float(np.max(out_right + out_left))
+    if order == 1:   # h_i^{n+1} = (1 − λ(a⁺ + a⁻)) h_i + …
+        outflow_rate = float(np.max(out_right + out_left))
+    else:            # h_i = (h_i⁻ + h_i⁺)/2: each half needs λ a^± ≤ 1/2
+        outflow_rate = 2.0 * float(max(np.max(out_right), np.max(out_left)))
     dt_max = math.inf
     if fastest > 0.0:
         dt_max = cfl * dx / fastest

@@ -99,7 +99,9 @@ class SavageHutter:
     ``MuIFriction``; side_wall: ``SideWallFriction`` or None; shape_factor: α (1 or 5/4);
     left/right: "wall" (reflective wall or symmetry plane) or "open" (zero-gradient outflow);
     cfl ≤ 1; h_dry [m]: thinner cells carry no momentum; front_threshold [m]: the thickness that
-    defines ``front``."""
+    defines ``front``; well_balanced: friction locks interfaces at rest (``scheme``; False only
+    to demonstrate the creep of the plain split); order: 1 (first-order HLL, forward Euler) or 2
+    (MUSCL minmod reconstruction of h and ū, Heun's two-stage Runge–Kutta)."""
 
     basal: CoulombFriction | MuIFriction
     slope_deg: float = 0.0
@@ -111,6 +113,8 @@ class SavageHutter:
     cfl: float = 0.9
     h_dry: float = 1e-10
     front_threshold: float = 1e-3
+    well_balanced: bool = True
+    order: int = 1
 
     def __post_init__(self):
         if self.left not in BOUNDARY_KINDS or self.right not in BOUNDARY_KINDS:
@@ -118,6 +122,8 @@ class SavageHutter:
                              f"{self.right}")
         if not 1.0 <= self.shape_factor <= 1.5:
             raise ValueError(f"shape_factor must be in [1, 1.5], got {self.shape_factor}")
+        if self.order not in (1, 2):
+            raise ValueError(f"order must be 1 or 2, got {self.order}")
         if not (0 < self.cfl <= 1):
             raise ValueError(f"cfl must be in (0, 1], got {self.cfl}")
         if not (-90 < self.slope_deg < 90 and self.g > 0 and self.h_dry >= 0
@@ -127,7 +133,8 @@ class SavageHutter:
     def physics(self) -> Physics:
         """The step's ``scheme.Physics``."""
         return Physics(g=self.g, theta=math.radians(self.slope_deg), alpha=self.shape_factor,
-                       basal=self.basal, side_wall=self.side_wall, h_dry=self.h_dry)
+                       basal=self.basal, side_wall=self.side_wall, h_dry=self.h_dry,
+                       well_balanced=self.well_balanced)
 
 
 @dataclass
@@ -166,6 +173,23 @@ def wet_front_position(h: np.ndarray, grid: Grid, h_dry: float) -> float:
     """Downslope edge of the furthest cell with h > h_dry (NaN if none) [m]."""
     wet = np.flatnonzero(h > h_dry)
     return grid.x_min + (int(wet[-1]) + 1) * grid.dx if wet.size else math.nan
+
+
+def _heun_step(h, q, terms, dt, phys, model, dx):
+    """U¹ = U + Δt L(U), U² = U¹ + Δt L(U¹), U^{n+1} = (U + U²)/2 (each L with its friction step).
+
+    Δt is cut to the second stage's own bound when that is smaller (positivity of U²).
+    Returns (h, q, Δt, mass that left through the boundaries)."""
+    for _ in range(20):
+        h1, q1 = update(h, q, terms, phys, dx, dt)
+        terms1 = interface_terms(h1, q1, phys, dx, model.cfl, model.left, model.right, 2)
+        if terms1.dt_max >= dt:
+            break
+        dt = terms1.dt_max
+    h2, q2 = update(h1, q1, terms1, phys, dx, dt)
+    lost = 0.5 * dt * (float(terms.mass_flux[-1] - terms.mass_flux[0])
+                       + float(terms1.mass_flux[-1] - terms1.mass_flux[0]))
+    return 0.5 * (h + h2), 0.5 * (q + q2), dt, lost
 
 
 def simulate(model: SavageHutter, grid: Grid, h_init: Profile, times: Sequence[float],
@@ -215,7 +239,7 @@ def simulate(model: SavageHutter, grid: Grid, h_init: Profile, times: Sequence[f
             k_out += 1
         if k_out == n_out:
             break
-        terms = interface_terms(h, q, phys, dx, model.cfl, model.left, model.right)
+        terms = interface_terms(h, q, phys, dx, model.cfl, model.left, model.right, model.order)
         if stop_at_rest and not q.any():
             empty = np.empty(h.size + 1, dtype=bool)
             empty[1:-1] = (h[:-1] == 0.0) & (h[1:] == 0.0)
@@ -230,8 +254,12 @@ def simulate(model: SavageHutter, grid: Grid, h_init: Profile, times: Sequence[f
         dt = min(terms.dt_max, times[k_out] - t)
         if not (dt > 0 and math.isfinite(dt)):
             raise SolverDiverged(f"time step {dt!r} at t = {t:g} s")
-        outflow += dt * (float(terms.mass_flux[-1]) - float(terms.mass_flux[0]))
-        h, q = update(h, q, terms, phys, dx, dt)
+        if model.order == 1:
+            outflow += dt * (float(terms.mass_flux[-1]) - float(terms.mass_flux[0]))
+            h, q = update(h, q, terms, phys, dx, dt)
+        else:
+            h, q, dt, lost = _heun_step(h, q, terms, dt, phys, model, dx)
+            outflow += lost
         t = times[k_out] if dt == times[k_out] - t else t + dt
         steps += 1
         if record_series:
