@@ -12,9 +12,10 @@ A run is ``simulate(model, grid, h_init, u_init, times)``:
 
 Each step takes Δt = min(CFL Δx / max|s|, positivity bound) (``scheme.interface_terms``),
 shortened to land on the next output time. The run ends at the last output time, or earlier
-when the state is a fixed point of the scheme: every ū = 0 and every interface locked by friction
-or between two empty cells (then nothing can change any more; ``Result.rest_time`` records when,
-and the remaining outputs repeat the final state).
+when the state is a fixed point of the scheme: every ū = 0, no mass crosses any interface (each is
+locked by friction, between two empty cells, or a wall), and a step leaves every ū = 0 — the
+driving impulse and the friction impulse both scale with Δt, so no later step changes anything.
+``Result.rest_time`` records when; the remaining outputs repeat the final state.
 
 Outputs (``Result``): at every output time the profiles h(x), ū(x) and the scalars; after
 every step a time series of the same scalars:
@@ -39,7 +40,9 @@ from dpcollapse.models.savage_hutter.friction import CoulombFriction, MuIFrictio
 from dpcollapse.models.savage_hutter.scheme import (
     BOUNDARY_KINDS,
     Physics,
+    friction_step,
     interface_terms,
+    transport,
     update,
     velocity,
 )
@@ -101,7 +104,8 @@ class SavageHutter:
     cfl ≤ 1; h_dry [m]: thinner cells carry no momentum; front_threshold [m]: the thickness that
     defines ``front``; well_balanced: friction locks interfaces at rest (``scheme``; False only
     to demonstrate the creep of the plain split); order: 1 (first-order HLL, forward Euler) or 2
-    (MUSCL minmod reconstruction of h and ū, Heun's two-stage Runge–Kutta)."""
+    (MUSCL minmod reconstruction of h and ū, Heun's two-stage Runge–Kutta); alpha_depth [m]:
+    below this thickness the shape factor tapers linearly to 1 (``scheme``: the α > 1 front)."""
 
     basal: CoulombFriction | MuIFriction
     slope_deg: float = 0.0
@@ -115,6 +119,7 @@ class SavageHutter:
     front_threshold: float = 1e-3
     well_balanced: bool = True
     order: int = 1
+    alpha_depth: float = 1e-3
 
     def __post_init__(self):
         if self.left not in BOUNDARY_KINDS or self.right not in BOUNDARY_KINDS:
@@ -127,14 +132,15 @@ class SavageHutter:
         if not (0 < self.cfl <= 1):
             raise ValueError(f"cfl must be in (0, 1], got {self.cfl}")
         if not (-90 < self.slope_deg < 90 and self.g > 0 and self.h_dry >= 0
-                and self.front_threshold > 0):
-            raise ValueError("need |slope_deg| < 90, g > 0, h_dry >= 0, front_threshold > 0")
+                and self.front_threshold > 0 and self.alpha_depth > 0):
+            raise ValueError("need |slope_deg| < 90, g > 0, h_dry >= 0, front_threshold > 0, "
+                             "alpha_depth > 0")
 
     def physics(self) -> Physics:
         """The step's ``scheme.Physics``."""
         return Physics(g=self.g, theta=math.radians(self.slope_deg), alpha=self.shape_factor,
                        basal=self.basal, side_wall=self.side_wall, h_dry=self.h_dry,
-                       well_balanced=self.well_balanced)
+                       well_balanced=self.well_balanced, alpha_depth=self.alpha_depth)
 
 
 @dataclass
@@ -176,20 +182,30 @@ def wet_front_position(h: np.ndarray, grid: Grid, h_dry: float) -> float:
 
 
 def _heun_step(h, q, terms, dt, phys, model, dx):
-    """U¹ = U + Δt L(U), U² = U¹ + Δt L(U¹), U^{n+1} = (U + U²)/2 (each L with its friction step).
+    """Heun (SSP-RK2) on transport and gravity, the implicit friction applied to each stage and,
+    once over Δt, to the combination::
 
-    Δt is cut to the second stage's own bound when that is smaller (positivity of U²).
+        U¹ = P(U + Δt T(U)),   h^{n+1} = (h + h¹ + Δt T_h(U¹))/2,
+        q^{n+1} = P(q + Δt (T_q(U) + T_q(U¹))/2)
+
+    (T the transport-plus-gravity tendency, P the friction step). Applying P to the average of
+    two friction steps instead would halve a stopping momentum each step and never reach 0.
+    Δt is cut to the second stage's own bound when that is smaller (positivity of h).
     Returns (h, q, Δt, mass that left through the boundaries)."""
     for _ in range(20):
-        h1, q1 = update(h, q, terms, phys, dx, dt)
+        h1, q1_star = transport(h, q, terms, dx, dt)
+        q1 = friction_step(h1, q1_star, phys, dt)
         terms1 = interface_terms(h1, q1, phys, dx, model.cfl, model.left, model.right, 2)
         if terms1.dt_max >= dt:
             break
         dt = terms1.dt_max
-    h2, q2 = update(h1, q1, terms1, phys, dx, dt)
+    h2, q2_star = transport(h1, q1, terms1, dx, dt)
+    h_new = 0.5 * (h + h2)
+    q_new_star = q + 0.5 * ((q1_star - q) + (q2_star - q1))
+    q_new = friction_step(h_new, q_new_star, phys, dt)
     lost = 0.5 * dt * (float(terms.mass_flux[-1] - terms.mass_flux[0])
                        + float(terms1.mass_flux[-1] - terms1.mass_flux[0]))
-    return 0.5 * (h + h2), 0.5 * (q + q2), dt, lost
+    return h_new, q_new, dt, lost
 
 
 def simulate(model: SavageHutter, grid: Grid, h_init: Profile, times: Sequence[float],
@@ -240,15 +256,7 @@ def simulate(model: SavageHutter, grid: Grid, h_init: Profile, times: Sequence[f
         if k_out == n_out:
             break
         terms = interface_terms(h, q, phys, dx, model.cfl, model.left, model.right, model.order)
-        if stop_at_rest and not q.any():
-            empty = np.empty(h.size + 1, dtype=bool)
-            empty[1:-1] = (h[:-1] == 0.0) & (h[1:] == 0.0)
-            empty[0], empty[-1] = h[0] == 0.0, h[-1] == 0.0
-            if np.all(terms.locked | empty):
-                rest_time = t
-                out_h[k_out:] = h
-                out_u[k_out:] = 0.0
-                break
+        at_rest_before = stop_at_rest and not q.any() and not terms.mass_flux.any()
         if steps >= max_steps:
             raise SolverDiverged(f"step budget {max_steps} exhausted at t = {t:g} s")
         dt = min(terms.dt_max, times[k_out] - t)
@@ -260,6 +268,11 @@ def simulate(model: SavageHutter, grid: Grid, h_init: Profile, times: Sequence[f
         else:
             h, q, dt, lost = _heun_step(h, q, terms, dt, phys, model, dx)
             outflow += lost
+        if at_rest_before and not q.any():
+            rest_time = t
+            out_h[k_out:] = h
+            out_u[k_out:] = 0.0
+            break
         t = times[k_out] if dt == times[k_out] - t else t + dt
         steps += 1
         if record_series:
