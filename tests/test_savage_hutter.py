@@ -236,3 +236,16 @@ def test_shape_factor_fan_is_singular_and_the_taper_bounds_it():
     plug = SavageHutter(basal=CoulombFriction(0.4), left="wall", right="open")
     res = simulate(plug, Grid(0.0, 4.0, 400), lambda x: np.where(x < 0.2, 0.4, 0.0), [0.3])
     assert res.series["max_speed"].max() < 2 * math.sqrt(G * 0.4)  # α = 1: bounded by 2 c0
+
+
+def test_mu_i_uniform_layer_reaches_the_steady_speed():
+    """μ_s < tanθ < μ_2: the implicit friction's fixed point is μ(Ī) = tanθ exactly, i.e.
+    Ī_θ = I0 (tanθ − μ_s)/(μ_2 − tanθ) and ū = Ī_θ h √(g h) / ((5/2) d), whatever Δt."""
+    law = MuIFriction(mu_s=0.32, mu_2=0.60, i0=0.4, grain_diameter=1e-3, g=G)
+    theta, h0 = 25.0, 0.01
+    tan = math.tan(math.radians(theta))
+    i_theta = 0.4 * (tan - 0.32) / (0.60 - tan)
+    u_steady = i_theta * h0 * math.sqrt(G * h0) / (2.5e-3)       # 0.548 m/s
+    model = SavageHutter(basal=law, slope_deg=theta, left="open", right="open")
+    res = simulate(model, Grid(0.0, 1.0, 4), h0, [40.0])
+    assert res.u[-1] == pytest.approx(np.full(4, u_steady), rel=1e-9)

@@ -8,7 +8,7 @@
   ‖h − h_exact‖₁ = Σ|h_i − h_exact(x_i)| Δx [m²] at orders 1 and 2, observed orders
   log2(e_N/e_2N), CPU time (time.process_time), fronts at h = 1 mm against the exact one.
 * Kerswell (2005) arrest on a flat bed: μ = 0.5, h0 = 1 m, reservoir [−10, 0] m behind a wall,
-  domain to 6 m; the front stop time (last step at which the wet front advanced) and runout
+  domain to 6 m, run to 6 s (or to rest); the front stop time (last step at which the wet front advanced) and runout
   (final wet front, and the 1 mm front) against 2√(h0/g)/μ and 2h0/μ; observed rates.
 * A heap at rest on a 10° slope (μ = tan 30°): max|ū| and max|Δh| after many steps, with the
   friction locking and with the plain split.
@@ -40,7 +40,7 @@ from dpcollapse.models.savage_hutter.solver import Grid, SavageHutter, simulate
 
 G = 9.81
 MANGENEY = {"theta": 22.0, "delta": 21.0, "h0": 1.0, "t": 5.0, "x_min": -20.0, "x_max": 40.0}
-KERSWELL = {"mu": 0.5, "h0": 1.0, "x_min": -10.0, "x_max": 6.0, "t_end": 3.0}
+KERSWELL = {"mu": 0.5, "h0": 1.0, "x_min": -10.0, "x_max": 6.0, "t_end": 6.0}
 FRONT_THRESHOLD = 1e-3
 
 
@@ -150,7 +150,16 @@ def _plot_mangeney(runs, out: Path):
     ax.set_ylabel("h [m]")
     ax.set_title("dam break, θ = 22°, δ = 21°, t = 5 s")
     ax.set_xlim(-16, 36)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="lower left")
+    zoom = ax.inset_axes([0.55, 0.45, 0.42, 0.35])
+    zoom.plot(first["x"], first["h_exact"], "k-", lw=2)
+    for r in runs:
+        if r["n"] in (200, 800, 3200) or r is runs[-1]:
+            zoom.plot(r["x"], r["h"], "-" if r["order"] == 1 else "--", lw=1)
+    zoom.set_xlim(15, 33)
+    zoom.set_ylim(0, 0.2)
+    zoom.set_title("front", fontsize=8)
+    zoom.tick_params(labelsize=7)
     for order, mark in ((1, "o-"), (2, "s--")):
         rs = [r for r in runs if r["order"] == order]
         if rs:
@@ -168,7 +177,7 @@ def _plot_mangeney(runs, out: Path):
     plt.close(fig)
 
 
-def _plot_kerswell(runs, out: Path):
+def _plot_kerswell(runs, out: Path, runs2=()):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -180,9 +189,11 @@ def _plot_kerswell(runs, out: Path):
     ax.plot(t, kerswell_front(t, c["h0"], c["mu"], G), "k-", lw=2, label="exact (Kerswell 2005)")
     for r in runs:
         ax.plot(r["t"], r["wet_front"], "-", lw=1, label=f"wet front, N = {r['n']}")
+    for r in runs2:
+        ax.plot(r["t"], r["wet_front"], "--", lw=1, label=f"order 2, N = {r['n']}")
     ax.set_xlabel("t [s]")
     ax.set_ylabel("front x_f − x0 [m]")
-    ax.set_title(f"arrest on a flat bed, μ = {c['mu']}, h0 = {c['h0']} m")
+    ax.set_title(f"arrest on a flat bed, μ = {c['mu']}, h0 = {c['h0']} m (order 1 unless noted)")
     ax.legend(fontsize=8)
     for r in runs:
         ax_h.plot(r["x"], r["h"], lw=1, label=f"N = {r['n']}")
@@ -235,18 +246,25 @@ def main(argv=None) -> int:
           f"runout {runout:.4f} m")
     print("     N   dx[m]  steps  cpu[s]  stop_t[s]  err_t   runout_wet  err_wet  "
           "runout_1mm  err_1mm  rest_time[s]  mass_error")
-    krows = [kerswell_run(n) for n in ns]
-    for r in krows:
-        print(f"{r['n']:6d} {r['dx']:7.4f} {r['steps']:6d} {r['cpu']:7.3f} {r['stop_time']:9.4f} "
-              f"{r['stop_time'] - t_stop:7.4f} {r['runout_wet']:11.4f} "
-              f"{r['runout_wet'] - runout:8.4f} {r['runout_thr']:11.4f} "
-              f"{r['runout_thr'] - runout:8.4f} {_fmt(r['rest_time'], '13.4f')} "
-              f"{r['mass_error']:11.2e}")
-    dxs = [r["dx"] for r in krows]
-    print(f"fitted rates: stop time {fitted_rate(dxs, [abs(r['stop_time'] - t_stop) for r in krows]):.3f}, "
-          f"wet runout {fitted_rate(dxs, [abs(r['runout_wet'] - runout) for r in krows]):.3f}, "
-          f"1 mm runout {fitted_rate(dxs, [abs(r['runout_thr'] - runout) for r in krows]):.3f}")
-    _plot_kerswell(krows[::2] if len(krows) > 4 else krows, out / "savage_hutter_kerswell.png")
+    for order in (1, 2):
+        rows = [kerswell_run(n, order) for n in ns]
+        print(f"order {order}")
+        for r in rows:
+            print(f"{r['n']:6d} {r['dx']:7.4f} {r['steps']:6d} {r['cpu']:7.3f} "
+                  f"{r['stop_time']:9.4f} {r['stop_time'] - t_stop:7.4f} {r['runout_wet']:11.4f} "
+                  f"{r['runout_wet'] - runout:8.4f} {r['runout_thr']:11.4f} "
+                  f"{r['runout_thr'] - runout:8.4f} {_fmt(r['rest_time'], '13.4f')} "
+                  f"{r['mass_error']:11.2e}")
+        dxs = [r["dx"] for r in rows]
+        rate_t = fitted_rate(dxs, [abs(r["stop_time"] - t_stop) for r in rows])
+        rate_w = fitted_rate(dxs, [abs(r["runout_wet"] - runout) for r in rows])
+        rate_1 = fitted_rate(dxs, [abs(r["runout_thr"] - runout) for r in rows])
+        print(f"fitted rates: stop time {rate_t:.3f}, wet runout {rate_w:.3f}, "
+              f"1 mm runout {rate_1:.3f}")
+        if order == 1:
+            krows = rows
+    _plot_kerswell(krows[::2] if len(krows) > 4 else krows, out / "savage_hutter_kerswell.png",
+                   rows[-1:])
 
     print("\nHeap at rest on a 10° slope, μ = tan 30°, N = 350, 20 s:")
     mu = math.tan(math.radians(30.0))
