@@ -114,7 +114,7 @@ def kerswell_run(n: int, order: int = 1) -> dict:
 
 def heap_run(well_balanced: bool, basal=None, n: int = 350, t_end: float = 20.0) -> dict:
     """Heap on a 10° slope, faces rising 0.5 (upslope) and falling 0.3 (downslope), peak 1 m:
-    |∂x h − tanθ| ≤ 0.58 < μ = tan 30° everywhere, so it must stay at rest."""
+    ∂x h − tanθ ∈ {0.324, −0.476}, within μ = tan 30° = 0.577, so it must stay at rest."""
     basal = basal or CoulombFriction(math.tan(math.radians(30.0)))
     model = SavageHutter(basal=basal, slope_deg=10.0, left="open", right="open",
                          well_balanced=well_balanced)
