@@ -249,3 +249,24 @@ def test_mu_i_uniform_layer_reaches_the_steady_speed():
     model = SavageHutter(basal=law, slope_deg=theta, left="open", right="open")
     res = simulate(model, Grid(0.0, 1.0, 4), h0, [40.0])
     assert res.u[-1] == pytest.approx(np.full(4, u_steady), rel=1e-9)
+
+
+@pytest.mark.parametrize("fraction, at_rest", [(0.5, True), (0.99, True), (1.5, False)])
+def test_pile_against_a_wall_on_a_slope_steeper_than_friction(fraction, at_rest):
+    """θ = 30°, μ = 0.3 < tanθ: a pile leaning on the downslope wall with surface slope
+    ∂x h = tanθ − fraction·μ is held (the wall reacts to any push into it, friction holds the
+    rest) for fraction ≤ 1 and slumps for fraction > 1 (its tip is a partly filled cell,
+    h/Δx = 0.21 < tanθ − μ: it leans on the pile). Measured: max|ū| = 0 and Δh = 0 over
+    1143–1144 steps; fraction 1.5 reached 8.2 m/s."""
+    theta, mu = 30.0, 0.3
+    slope = math.tan(math.radians(theta)) - fraction * mu
+    model = SavageHutter(basal=CoulombFriction(mu), slope_deg=theta, left="open", right="wall")
+    grid = Grid(0.0, 2.0, 200)
+    h0 = grid.cell_values(lambda x: np.maximum(0.0, 0.5 + slope * (x - 2.0)))
+    res = simulate(model, grid, h0, [5.0], stop_at_rest=False)
+    assert res.steps > 1000
+    if at_rest:
+        assert res.series["max_speed"].max() == 0.0
+        assert np.array_equal(res.h[-1], h0)
+    else:
+        assert res.series["max_speed"].max() > 1.0

@@ -10,7 +10,7 @@ s_L = min(λ−_L, λ−_R, 0), s_R = max(λ+_L, λ+_R, 0), and the dry-bed spee
 cell dry) / ū_R − 2 c_R (left cell dry), c = √(g cosθ h). With s_L ≤ ū ≤ s_R the update of h is
 a combination of h_{i−1}, h_i, h_{i+1} with non-negative coefficients when
 Δt ≤ Δx / a_i, a_i = s_R(ū_i − s_L)/(s_R − s_L)|_{i+½} + (−s_L)(s_R − ū_i)/(s_R − s_L)|_{i−½}:
-``step_bound`` returns that bound, so h ≥ 0 (up to round-off, clipped) at any front.
+``interface_terms`` returns that bound (dt_max), so h ≥ 0 (up to round-off, clipped) at any front.
 
 Gravity along the slope is split between the two half cells of each interface, so that the
 update of cell i reads, with λ = Δt/Δx::
@@ -29,28 +29,37 @@ momentum flux is therefore a(h) q²/h with a = α for h ≥ h_α and a = 1 + (α
 a convergent product; flows thicker than h_α see the full α. Its wave speeds: a ū ±
 √(α(α−1) ū² + g cosθ h) for h ≥ h_α, a ū ± √((a² − 1) ū² + g cosθ h) below.
 
-Well balance (friction in the reconstruction). An interface whose two cells are at rest
-(q = 0) and whose surface step obeys
+Well balance (friction in the reconstruction). Between two cells at rest (q = 0) the HLL flux
+still diffuses mass, −c (h_R − h_L)/2 with c the larger sound speed: that is how a plain split
+creeps. So a face whose two cells are at rest passes no mass and carries the central thrust
+(p_L + p_R)/2, p = g cosθ h²/2 (the HLL value at rest with symmetric speeds); if the force
+beats friction the cells get a velocity first, and mass moves at the next step. Such a face is
+moreover *locked* when its surface step obeys
 
     |h_R − h_L − Δx tanθ| ≤ μ_static Δx,   μ_static = min over the two cells of μ_b(Ī=0) + μ_w h/w
 
-is *locked*: the net force of pressure and gravity on its two half cells, −g cosθ h̄ (Δh −
-Δx tanθ) with h̄ = (h_L + h_R)/2 (what the HLL flux at rest delivers), is within the static
-friction μ_static g cosθ h̄ Δx of those half cells, so friction holds it. A locked interface
-passes no mass and returns each cell its own hydrostatic thrust::
+i.e. when the net force of pressure and gravity on its two half cells, −g cosθ h̄ (Δh − Δx tanθ)
+with h̄ = (h_L + h_R)/2, is within the static friction μ_static g cosθ h̄ Δx of those half
+cells. At a wall the mirror cell is not material: the wall reacts to any push into it, so a wall
+face at rest is locked unless the pull away from the wall exceeds friction (right wall:
+h_R − h_L − Δx tanθ ≤ μ_static Δx, left wall: ≥ −μ_static Δx, with the mirrored h). A locked
+face returns each side its own hydrostatic thrust::
 
     F^h = 0,   G^L = g cosθ h_L²/2,   G^R = g cosθ h_R²/2
 
 A cell whose two faces are locked is *held*: both faces return its own thrust, so h* = h and
-q* = 0. A cell with only one locked face feels the full (unlocked) force of both faces and the
-whole cell's friction decides below; the locked face still passes no mass. (Returning the at-rest
-thrust through one face only would let the friction of that half cell count twice.)
+q* = 0 bit for bit. A cell with only one locked face feels the full force of both faces (its
+half cells' pressure and gravity) and the whole cell's friction decides below. (Returning the
+at-rest thrust through one face only would let the friction of that half cell count twice.)
 
-It is hydrostatic reconstruction on the "apparent topography" of friction: the friction
-flattens the apparent surface across the interface, so the reconstructed depths on both sides
-are equal and the HLL flux of two equal states at rest is exactly this. A held cell gets
-h* = h and q* = 0 bit for bit, whatever Δt: a heap whose surface
-slope is within the friction keeps its shape and ū = 0 to round-off, forever.
+This is hydrostatic reconstruction on the "apparent topography" of friction: the friction
+flattens the apparent surface across the face, so the reconstructed depths on both sides are
+equal and the HLL flux of two equal states at rest, with the reconstruction's source correction,
+is exactly this. The pair test lets a thin, partly filled edge cell lean on its neighbour (a
+cell-by-cell test would push it off), and the implicit friction below decides for every cell
+that is not held. Any state with every ū = 0 in which each face is locked or each non-held
+cell's force is within its friction is an exact fixed point: a heap whose surface slope is within
+the friction keeps its shape and ū = 0 to round-off, forever.
 
 Friction of moving cells (and of cells at rest next to a moving interface) is then applied
 implicitly in the speed (``friction.implicit_speed``)::
@@ -217,10 +226,20 @@ def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
     # Friction locking (module docstring).
     mu_static = phys.static_friction(he)
     mu_face = np.minimum(mu_static[:-1], mu_static[1:])
-    drive = np.abs(hr - hl - dx * math.tan(phys.theta))
-    locked = (ql == 0.0) & (qr == 0.0) & (drive <= mu_face * dx)
+    drive = hr - hl - dx * math.tan(phys.theta)
+    at_rest = (ql == 0.0) & (qr == 0.0)
     if not phys.well_balanced:
-        locked[:] = False
+        at_rest[:] = False
+    locked = at_rest & (np.abs(drive) <= mu_face * dx)
+    # A wall reacts to any push into it: only a pull away from it needs friction.
+    if left == "wall":
+        locked[0] = at_rest[0] and drive[0] >= -mu_face[0] * dx
+    if right == "wall":
+        locked[-1] = at_rest[-1] and drive[-1] <= mu_face[-1] * dx
+    # Between two cells at rest the HLL flux would still diffuse mass, −c (h_R − h_L)/2: no mass
+    # crosses such a face and it carries the central thrust (p_L + p_R)/2 (the HLL value at rest
+    # with symmetric speeds); if the force beats friction the cells move first, then mass.
+    mom_flux = np.where(at_rest, 0.5 * (pressure[:-1] + pressure[1:]), mom_flux)
 
     # A cell is held when both its faces are locked; only then do its faces return the at-rest
     # thrust. A cell with one locked face feels the full force (both faces' unlocked terms) and
@@ -230,7 +249,7 @@ def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
     half_gravity = 0.5 * phys.g_sin * dx
     left_flux = np.where(held[:-1], pressure[:-1], mom_flux - half_gravity * hl)
     right_flux = np.where(held[1:], pressure[1:], mom_flux + half_gravity * hr)
-    mass_flux[locked] = 0.0
+    mass_flux[at_rest] = 0.0
     if left == "wall":
         mass_flux[0] = 0.0
     if right == "wall":
@@ -238,8 +257,8 @@ def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
 
     # Δt: CFL on the fastest wave, and positivity of h (coefficients of h_i ≥ 0).
     fastest = max(float(np.max(s_r)), float(-np.min(s_l)))
-    out_right = np.where(locked, 0.0, s_r * (ul - s_l) * inv_width)[1:]   # face i+½ of cell i
-    out_left = np.where(locked, 0.0, -s_l * (s_r - ur) * inv_width)[:-1]  # face i−½ of cell i
+    out_right = np.where(at_rest, 0.0, s_r * (ul - s_l) * inv_width)[1:]   # face i+½ of cell i
+    out_left = np.where(at_rest, 0.0, -s_l * (s_r - ur) * inv_width)[:-1]  # face i−½ of cell i
     if order == 1:   # h_i^{n+1} = (1 − λ(a⁺ + a⁻)) h_i + …
         outflow_rate = float(np.max(out_right + out_left))
     else:            # h_i = (h_i⁻ + h_i⁺)/2: each half needs λ a^± ≤ 1/2
