@@ -159,7 +159,7 @@ def test_mass_conserved_to_round_off(order):
 
 
 def test_mangeney_dam_break_first_order_convergence():
-    """Measured L1(h) 1.133, 0.576, 0.281, 0.136 m² for N = 200 … 1600, orders 0.98–1.05."""
+    """Measured L1(h) 1.097, 0.555, 0.275, 0.133 m² for N = 200 … 1600, orders 0.98–1.05."""
     rows = [mangeney_run(n, order=1) for n in (200, 400, 800, 1600)]
     errors = [r["err_h"] for r in rows]
     orders = observed_orders(errors)[1:]
@@ -170,8 +170,8 @@ def test_mangeney_dam_break_first_order_convergence():
 
 
 def test_mangeney_dam_break_second_order():
-    """MUSCL–Heun: measured L1(h) 0.368, 0.162, 0.069 m² (N = 200, 400, 800), orders 1.18, 1.23:
-    about 4 times below first order on the same mesh."""
+    """MUSCL–Heun: measured L1(h) 0.338, 0.152, 0.064 m² (N = 200, 400, 800), orders 1.15, 1.26:
+    3–4 times below first order on the same mesh."""
     rows = [mangeney_run(n, order=2) for n in (200, 400, 800)]
     errors = [r["err_h"] for r in rows]
     orders = observed_orders(errors)[1:]
@@ -195,8 +195,8 @@ def test_exact_solutions_are_consistent():
 
 
 def test_kerswell_arrest_converges_slowly():
-    """Measured (N = 200 … 1600): wet runout 3.04, 3.24, 3.38, 3.50 m (exact 4), front stop time
-    0.953, 1.034, 1.074, 1.118 s (exact 1.277); fitted rates 0.31 and 0.34."""
+    """Measured (N = 200 … 1600): wet runout 2.96, 3.24, 3.38, 3.50 m (exact 4), front stop time
+    0.891, 1.050, 1.088, 1.129 s (exact 1.277); fitted rates 0.35 and 0.44 over these four."""
     rows = [kerswell_run(n) for n in (200, 400, 800, 1600)]
     runout, t_stop = kerswell_runout(1.0, 0.5), kerswell_stop_time(1.0, 0.5, G)
     err_x = [runout - r["runout_wet"] for r in rows]
@@ -221,9 +221,9 @@ def test_1600_cell_dam_break_is_fast():
 def test_shape_factor_fan_is_singular_and_the_taper_bounds_it():
     """α = 5/4: along the dam-break fan dū/dh = (λ− − ū)/h → −(1 − α + √(α(α−1))) ū/h as h → 0,
     so ū ∝ h^(−0.309) and the front speed is unbounded. With the taper below h_α the fastest
-    precursor speed scales as h_α^(−0.309): measured 18.81/9.28 = 2.03 m/s ratio for h_α = 1 mm
-    / 1 cm (10^0.309 = 2.04; N = 400, Coulomb μ = 0.4, 0.4 m × 0.2 m column, 0.3 s); α = 1 gave
-    2.50 m/s."""
+    precursor speed scales as h_α^(−0.309): measured 18.54 and 9.20 m/s, ratio 2.02, for h_α = 1 mm
+    and 1 cm (10^0.309 = 2.04; N = 400, Coulomb μ = 0.4, 0.4 m × 0.2 m column, 0.3 s); α = 1 gave
+    2.49 m/s."""
     alpha = 1.25
     exponent = 1 - alpha + math.sqrt(alpha * (alpha - 1))
     speeds = []
