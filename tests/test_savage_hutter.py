@@ -170,13 +170,13 @@ def test_mangeney_dam_break_first_order_convergence():
 
 
 def test_mangeney_dam_break_second_order():
-    """MUSCL–Heun: measured L1(h) 0.338, 0.152, 0.064 m² (N = 200, 400, 800), orders 1.15, 1.26:
-    3–4 times below first order on the same mesh."""
+    """MUSCL (MC limiter)–Heun: measured L1(h) 0.283, 0.125, 0.049 m² (N = 200, 400, 800), orders
+    1.18, 1.36: 4–5.6 times below first order on the same mesh."""
     rows = [mangeney_run(n, order=2) for n in (200, 400, 800)]
     errors = [r["err_h"] for r in rows]
     orders = observed_orders(errors)[1:]
-    assert all(1.05 < p < 1.4 for p in orders), orders
-    assert errors[-1] < 0.08
+    assert all(1.05 < p < 1.6 for p in orders), orders
+    assert errors[-1] < 0.06
 
 
 def test_exact_solutions_are_consistent():

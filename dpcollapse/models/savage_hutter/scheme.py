@@ -81,7 +81,7 @@ from typing import NamedTuple
 import numpy as np
 
 __all__ = ["InterfaceTerms", "Physics", "extend_with_ghosts", "friction_step", "interface_terms",
-           "minmod_faces", "transport", "update"]
+           "limited_faces", "transport", "update"]
 
 BOUNDARY_KINDS = ("wall", "open")
 
@@ -159,15 +159,18 @@ def velocity(h, q, h_dry):
     return np.where(wet, q / np.where(wet, h, 1.0), 0.0)
 
 
-def minmod_faces(v):
-    """(v⁻, v⁺): values at the left and right faces of every cell of the ghost-extended array v
-    from the minmod slope σ_i = minmod(v_i − v_{i−1}, v_{i+1} − v_i), v^± = v_i ± σ_i/2 (σ = 0 in
-    the ghost cells). Face values stay between neighbouring cell values (h⁻, h⁺ ≥ 0)."""
+def limited_faces(v):
+    """(v⁻, v⁺): values at the left and right faces of every cell of the ghost-extended array v,
+    v^± = v_i ± σ_i/2, with the monotonized-central slope
+    σ_i = minmod(2 (v_i − v_{i−1}), (v_{i+1} − v_{i−1})/2, 2 (v_{i+1} − v_i)) (σ = 0 in the
+    ghost cells and at extrema). Face values stay between neighbouring cell values (h⁻, h⁺ ≥ 0).
+    (MC rather than minmod: measured lower errors on both verification cases, docs.)"""
     back = v[1:-1] - v[:-2]
     ahead = v[2:] - v[1:-1]
+    centred = 0.5 * (back + ahead)
+    size = np.minimum(np.minimum(2.0 * np.abs(back), 2.0 * np.abs(ahead)), np.abs(centred))
     slope = np.zeros_like(v)
-    slope[1:-1] = np.where(back * ahead > 0.0,
-                           np.copysign(np.minimum(np.abs(back), np.abs(ahead)), back), 0.0)
+    slope[1:-1] = np.where(back * ahead > 0.0, np.copysign(size, centred), 0.0)
     return v - 0.5 * slope, v + 0.5 * slope
 
 
@@ -175,7 +178,7 @@ def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
                     right: str, order: int = 1) -> InterfaceTerms:
     """HLL fluxes, gravity split, friction locking and the admissible Δt for state (h, q).
 
-    order 1: the interface states are the cell values; order 2: MUSCL, minmod-limited h and ū
+    order 1: the interface states are the cell values; order 2: MUSCL, MC-limited h and ū
     at the faces, q = h ū there (the locking test and the gravity split use the cell values,
     so the rest states are the same as at order 1)."""
     he, qe = extend_with_ghosts(h, q, left, right)
@@ -186,8 +189,8 @@ def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
         ql, qr = qe[:-1], qe[1:]
         ul, ur = ue[:-1], ue[1:]
     else:
-        h_minus, h_plus = minmod_faces(he)
-        u_minus, u_plus = minmod_faces(ue)
+        h_minus, h_plus = limited_faces(he)
+        u_minus, u_plus = limited_faces(ue)
         hl, hr = h_plus[:-1], h_minus[1:]
         ul = np.where(hl > phys.h_dry, u_plus[:-1], 0.0)
         ur = np.where(hr > phys.h_dry, u_minus[1:], 0.0)

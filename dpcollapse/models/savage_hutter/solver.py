@@ -104,8 +104,9 @@ class SavageHutter:
     cfl ≤ 1; h_dry [m]: thinner cells carry no momentum; front_threshold [m]: the thickness that
     defines ``front``; well_balanced: friction locks interfaces at rest (``scheme``; False only
     to demonstrate the creep of the plain split); order: 1 (first-order HLL, forward Euler) or 2
-    (MUSCL minmod reconstruction of h and ū, Heun's two-stage Runge–Kutta); alpha_depth [m]:
-    below this thickness the shape factor tapers linearly to 1 (``scheme``: the α > 1 front)."""
+    (MUSCL reconstruction of h and ū with the MC limiter, Heun's two-stage Runge–Kutta);
+    alpha_depth [m]: below this thickness the shape factor tapers linearly to 1 (``scheme``: the
+    α > 1 front)."""
 
     basal: CoulombFriction | MuIFriction
     slope_deg: float = 0.0
