@@ -171,7 +171,7 @@ def test_mangeney_dam_break_first_order_convergence():
 
 def test_mangeney_dam_break_second_order():
     """MUSCL (MC limiter)–Heun: measured L1(h) 0.283, 0.125, 0.049 m² (N = 200, 400, 800), orders
-    1.18, 1.36: 4–5.6 times below first order on the same mesh."""
+    1.18, 1.36: 3.9–5.6 times below first order on the same mesh."""
     rows = [mangeney_run(n, order=2) for n in (200, 400, 800)]
     errors = [r["err_h"] for r in rows]
     orders = observed_orders(errors)[1:]
