@@ -94,8 +94,9 @@ class Physics:
     (1 plug flow, 5/4 Bagnold profile); basal a ``friction`` law; side_wall a
     ``SideWallFriction`` or None; h_dry [m]: thinner cells carry no momentum (ū = 0);
     alpha_depth: h_α [m], the thickness below which the shape factor tapers linearly to 1
-    (see the module docstring); well_balanced: lock interfaces held by friction (False gives the plain split
-    ū ← max(|ū| − μ g cosθ Δt, 0) sign ū after the fluxes, kept only to show that it creeps)."""
+    (see the module docstring); well_balanced: no mass between cells at rest, friction locking
+    (False gives the plain split ū ← max(|ū| − μ g cosθ Δt, 0) sign ū after the HLL fluxes, kept
+    only to show that it creeps)."""
 
     g: float
     theta: float
@@ -103,7 +104,7 @@ class Physics:
     basal: object
     side_wall: object = None
     h_dry: float = 1e-10
-    well_balanced: bool = True  # False: no locking (the plain split, for comparison only)
+    well_balanced: bool = True  # False: the plain split, for comparison only
     alpha_depth: float = 1e-3   # h_α [m]: below it the shape factor tapers to 1
 
     def shape_factor(self, h):
