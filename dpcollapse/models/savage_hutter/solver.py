@@ -12,9 +12,9 @@ A run is ``simulate(model, grid, h_init, u_init, times)``:
 
 Each step takes Δt = min(CFL Δx / max|s|, positivity bound) (``scheme.interface_terms``),
 shortened to land on the next output time. The run ends at the last output time, or earlier
-when the state is a fixed point of the scheme: every ū = 0, no mass crosses any interface (each is
-locked by friction, between two empty cells, or a wall), and a step leaves every ū = 0 — the
-driving impulse and the friction impulse both scale with Δt, so no later step changes anything.
+when the state is a fixed point of the scheme: every ū = 0 (then no mass crosses any face) and a
+step leaves every ū = 0 — the driving impulse and the friction impulse both scale with Δt, so no
+later step changes anything.
 ``Result.rest_time`` records when; the remaining outputs repeat the final state.
 
 Outputs (``Result``): at every output time the profiles h(x), ū(x) and the scalars; after
