@@ -191,13 +191,13 @@ def _heun_step(h, q, terms, dt, phys, model, dx):
 
     (T the transport-plus-gravity tendency, P the friction step). Applying P to the average of
     two friction steps instead would halve a stopping momentum each step and never reach 0.
-    Δt is cut to the second stage's own bound when that is smaller (positivity of h).
+    Δt is cut to the second stage's hard bound (CFL 1 and positivity of h) when that is smaller.
     Returns (h, q, Δt, mass that left through the boundaries)."""
     for _ in range(20):
         h1, q1_star = transport(h, q, terms, dx, dt)
         q1 = friction_step(h1, q1_star, phys, dt)
         terms1 = interface_terms(h1, q1, phys, dx, model.cfl, model.left, model.right, 2)
-        if terms1.dt_max >= dt:
+        if terms1.dt_hard >= dt:
             break
         dt = terms1.dt_max
     h2, q2_star = transport(h1, q1, terms1, dx, dt)
