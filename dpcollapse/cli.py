@@ -303,6 +303,12 @@ def bench(cases: str | None, quick: bool, out: Path, nprocs: int, growth: bool,
     return 0
 
 
+from dpcollapse.sweep.commands import plot_sweep, sweep  # no DOLFINx imported
+
+cli.add_command(sweep)
+cli.add_command(plot_sweep)
+
+
 def _error(message: str) -> None:
     """One line on stderr, from rank 0 only."""
     if _rank() == 0:
