@@ -46,10 +46,15 @@ def sweep(sweep_file: Path, executor: str, jobs: int | None, out: Path | None,
     sweep.csv (one row per case). Running it again skips finished cases and resumes
     interrupted ones."""
     try:
-        return _sweep(sweep_file, executor, jobs, out, overrides, collect, dry_run,
+        code = _sweep(sweep_file, executor, jobs, out, overrides, collect, dry_run,
                       retry_failed, task, fingerprint)
     except DpcollapseError as exc:
-        return _fail(exc)
+        code = _fail(exc)
+    if executor == "mpi":
+        from dpcollapse.sweep.executors import mpi_exit_status
+
+        code = mpi_exit_status(code)
+    return code
 
 
 def _sweep(sweep_file, executor, jobs, out, overrides, collect, dry_run, retry_failed, task,

@@ -15,6 +15,7 @@ and this dpcollapse first on PYTHONPATH. A failure is recorded; the sweep goes o
 
 from __future__ import annotations
 
+import atexit
 import concurrent.futures as cf
 import logging
 import os
@@ -201,12 +202,43 @@ def _mpi_pool():
         from mpi4py.futures import MPIPoolExecutor
     except ImportError:
         raise ConfigError("--executor mpi: mpi4py is not installed") from None
-    lib = sys.modules.get("mpi4py.futures._lib") or sys.modules.get("mpi4py.futures._core")
-    if getattr(lib, "SharedPool", None) is None or MPI.COMM_WORLD.Get_size() < 2:
+    if _futures_lib() is None or MPI.COMM_WORLD.Get_size() < 2:
         raise ConfigError("--executor mpi: start the sweep as 'mpirun -n N python -m "
                           "mpi4py.futures -m dpcollapse.cli sweep ... --executor mpi' (N >= 2: "
                           "rank 0 drives, N - 1 ranks run cases)")
     return MPIPoolExecutor(), MPI.COMM_WORLD.Get_size() - 1
+
+
+def _futures_lib():
+    lib = sys.modules.get("mpi4py.futures._lib") or sys.modules.get("mpi4py.futures._core")
+    return lib if getattr(lib, "SharedPool", None) is not None else None
+
+
+def mpi_exit_status(code: int) -> int:
+    """The status to return from the command, given the sweep's ``code``.
+
+    Under ``python -m mpi4py.futures`` a non-zero exit status makes mpi4py call
+    ``MPI_Abort`` (and Debian's mpirun 4.1 then crashes in its PMIx clean-up, exit 139).
+    So the driver returns 0, lets mpi4py release the worker ranks, and at interpreter exit
+    finalizes MPI itself and exits with ``code``: mpirun then exits with ``code`` too.
+    Elsewhere ``code`` is returned unchanged.
+    """
+    if code == 0 or _futures_lib() is None:
+        return code
+    from mpi4py import MPI
+
+    if MPI.COMM_WORLD.Get_size() < 2:
+        return code
+
+    def finish() -> None:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        if MPI.Is_initialized() and not MPI.Is_finalized():
+            MPI.Finalize()
+        os._exit(code)
+
+    atexit.register(finish)
+    return 0
 
 
 def run_sweep(sweep: Sweep, out: Path, executor: str = "local", jobs: int = 1,
@@ -235,7 +267,10 @@ def run_sweep(sweep: Sweep, out: Path, executor: str = "local", jobs: int = 1,
     table = collect(sweep, out)
     log.info("sweep %s: %s; running %d on %d %s", sweep.path.name, progress_line(table),
              len(tasks), workers, "MPI workers" if executor == "mpi" else "processes")
-    previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+    # SIGTERM stops the sweep as Ctrl-C does; SIGINT may have been ignored (a background
+    # job of a script): handled again, and so not ignored either by the cases started now.
+    previous = {s: signal.signal(s, h) for s, h in ((signal.SIGTERM, _raise_interrupt),
+                                                     (signal.SIGINT, signal.default_int_handler))}
     futures = {}
     try:
         for case, task in tasks:
@@ -264,7 +299,8 @@ def run_sweep(sweep: Sweep, out: Path, executor: str = "local", jobs: int = 1,
         raise Interrupted(f"sweep interrupted: {progress_line(table)}; run it again to "
                           "resume") from None
     finally:
-        signal.signal(signal.SIGTERM, previous)
+        for s, h in previous.items():
+            signal.signal(s, h)
     pool.shutdown(wait=True)
     table = collect(sweep, out)
     write_atomic(out / "progress.txt", progress_line(table, time.perf_counter() - t0) + "\n")

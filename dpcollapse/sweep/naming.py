@@ -43,27 +43,27 @@ def _digest(params: Mapping[str, Any]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:8]
 
 
+#: A key of this name in a parameter set is a name given in the sweep file: shown bare.
+NAME = "name"
+
+
 def base_name(params: Mapping[str, Any], short: Mapping[str, str]) -> str:
     """``key=value`` items joined by ``__``, unsafe characters as ``_``; "base" if empty."""
-    parts = [f"{short[k]}={_UNSAFE.sub('_', yaml_value(v))}" for k, v in params.items()]
+    parts = [str(v) if k == NAME else f"{short[k]}={_UNSAFE.sub('_', yaml_value(v))}"
+             for k, v in params.items()]
     return "__".join(parts) or "base"
 
 
-def case_names(param_sets: Sequence[Mapping[str, Any]],
-               explicit: Sequence[str | None] | None = None) -> list[str]:
-    """One unique, safe name per parameter set (``explicit`` names win where given)."""
+def case_names(param_sets: Sequence[Mapping[str, Any]]) -> list[str]:
+    """One unique, safe name per parameter set (a ``name`` item is used as it is)."""
     keys: list[str] = []
     for params in param_sets:
-        keys += [k for k in params if k not in keys]
+        keys += [k for k in params if k not in keys and k != NAME]
     short = short_keys(keys)
-    explicit = list(explicit or [None] * len(param_sets))
-    names = [e or base_name(p, short) for p, e in zip(param_sets, explicit)]
+    names = [base_name(p, short) for p in param_sets]
     folded = [n.lower() for n in names]
     out = []
-    for i, (name, params) in enumerate(zip(names, param_sets)):
-        if explicit[i]:
-            out.append(name)
-            continue
+    for name, params in zip(names, param_sets):
         if folded.count(name.lower()) > 1 or len(name) > MAX_LENGTH - 10:
             name = f"{name[: MAX_LENGTH - 10]}-h{_digest(params)}"
         out.append(name)

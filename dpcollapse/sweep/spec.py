@@ -215,13 +215,13 @@ def load_sweep(path: str | Path, extra: tuple[str, ...] = ()) -> Sweep:
     fixed = [f"{k}={yaml_value(v)}" for k, v in spec.set.items()] + list(extra)
     combos = list(itertools.product(*_factors(path, spec)))
     params = [{k: v for p, _ in combo for k, v in p.items()} for combo in combos]
-    explicit = [next((n for _, n in combo if n), None) for combo in combos]
-    names = case_names(params, explicit)
+    names = case_names([{k: v for p, n in combo for k, v in ({"name": n} if n else p).items()}
+                        for combo in combos])
     folded: dict[str, int] = {}
     for i, name in enumerate(names):
         if name.lower() in folded:
             raise ConfigError(f"sweep file {path}: cases {folded[name.lower()]} and {i} have the "
-                              f"same name {name!r} (the same parameters, or the same name:)")
+                              f"same name {name!r} (the same parameters, or the same name)")
         folded[name.lower()] = i
     try:
         load_config(base, fixed)
