@@ -305,3 +305,18 @@ def test_changed_config_runs_the_case_again_from_scratch(local_sweep, tmp_path):
     assert [a["action"] for a in record["attempts"]] == ["fresh"]
     diag = (copy / "runs" / "friction_angle=30" / "diagnostics.csv").read_text().splitlines()
     assert len(diag) == 1 + 10   # one run only: header and 10 steps, nothing of the old run
+
+
+def test_slope_study_is_the_twelve_slope_configs():
+    from dpcollapse.config import config_to_dict, load_config
+
+    sw = load_sweep(ROOT / "configs" / "sweeps" / "slopes.yaml")
+    assert len(sw.cases) == 12
+    for case in sw.cases:
+        slope = case.params["geometry.bed_angle"]
+        rh = {"mu_i": "mui", "drucker_prager": "dp"}[case.params["material.rheology"]]
+        width = case.params["boundary.channel_width"]
+        cfg = config_to_dict(load_config(ROOT / "configs" / f"slope{slope}_{rh}.yaml",
+                                          [f"boundary.channel_width={width}".replace("None", "null")]))
+        cfg["output"] = case.config["output"]
+        assert case.config == json.loads(json.dumps(cfg)), case.name
