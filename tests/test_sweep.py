@@ -162,6 +162,14 @@ def test_bad_override_names_the_case_and_key(tmp_path, capsys):
     assert not (tmp_path / "out").exists()  # nothing ran
 
 
+def test_refuses_to_run_once_per_rank(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "2")
+    path = _write(tmp_path, TINY)
+    assert main(["sweep", str(path), "--out", str(tmp_path / "out")]) == 2
+    assert "use 'python -m mpi4py.futures' and --executor mpi" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
 def test_case_environment_and_command(tmp_path):
     env = child_env({"OMPI_COMM_WORLD_RANK": "1", "PMIX_RANK": "1", "PMI_FD": "3",
                      "HOME": "/root", "OPENBLAS_NUM_THREADS": "8", "PYTHONPATH": "/x"})

@@ -67,6 +67,9 @@ def _sweep(sweep_file, executor, jobs, out, overrides, collect, dry_run, retry_f
     if jobs is not None and executor == "mpi":
         raise ConfigError("--jobs: not with --executor mpi (one case per worker rank: "
                           "choose the number of ranks of mpirun)")
+    if executor != "mpi" and ex.launched_ranks() > 1 and ex._futures_lib() is None:
+        raise ConfigError("dpcollapse sweep runs as one process (each rank would run every "
+                          "case); under mpirun use 'python -m mpi4py.futures' and --executor mpi")
     sw = load_sweep(sweep_file, overrides)
     out = Path(out or Path("runs") / sweep_file.stem)
     if fingerprint is not None and fingerprint != sw.fingerprint:

@@ -209,6 +209,16 @@ def _mpi_pool():
     return MPIPoolExecutor(), MPI.COMM_WORLD.Get_size() - 1
 
 
+def launched_ranks() -> int:
+    """Number of ranks an MPI launcher started this process among (1 when none)."""
+    for var in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE"):
+        try:
+            return max(1, int(os.environ[var]))
+        except (KeyError, ValueError):
+            continue
+    return 1
+
+
 def _futures_lib():
     lib = sys.modules.get("mpi4py.futures._lib") or sys.modules.get("mpi4py.futures._core")
     return lib if getattr(lib, "SharedPool", None) is not None else None
