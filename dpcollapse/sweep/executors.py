@@ -303,6 +303,8 @@ def run_sweep(sweep: Sweep, out: Path, executor: str = "local", jobs: int = 1,
             fut.cancel()
         log.warning("sweep interrupted: stopping the running cases")
         _stop_children()
+        if executor == "mpi":  # the workers pass the signal on; wait for their records
+            cf.wait([f for f in futures if not f.done()], timeout=STOP_GRACE)
         pool.shutdown(wait=executor != "mpi", cancel_futures=True)
         table = collect(sweep, out)
         write_atomic(out / "progress.txt", progress_line(table) + "\n")

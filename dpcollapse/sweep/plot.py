@@ -63,7 +63,7 @@ def plot_sweep(sweep_dir: Path, x: str, y: str = "runout", by: str | None = None
     left_out = len(rows) - len(shown)
     if not shown:
         raise ConfigError(f"{sweep_dir}: no finished case with a value of {y} to plot")
-    others = [p for p in params if p not in (x, by) and len({r[p] for r in rows}) > 1]
+    others = [p for p in params if p not in (x, by) and len({r[p] for r in shown}) > 1]
     xs_num = all(_number(r[x]) is not None for r in shown)
     categories = list(dict.fromkeys(r[x] for r in shown))
 
@@ -78,12 +78,20 @@ def plot_sweep(sweep_dir: Path, x: str, y: str = "runout", by: str | None = None
     fig, ax = plt.subplots(figsize=(7, 4.5))
     markers = "os^Dv<>ph*"
     short = lambda k: k.rpartition(".")[2]
-    for i, (key, items) in enumerate(groups.items()):
+    # colour: the value of --by; line style and marker: the other varied parameters
+    colours = list(dict.fromkeys(k[0] for k in groups)) if by else [()]
+    styles = list(dict.fromkeys(k[1:] if by else k for k in groups))
+    dashes = ["-", "--", ":", "-."]
+    for key, items in groups.items():
         pos = [(_number(r[x]) if xs_num else categories.index(r[x]), _number(r[y])) for r in items]
         pos.sort()
-        label = ", ".join(f"{short(k)} = {v}" for k, v in zip(([by] if by else []) + others, key))
-        ax.plot([p[0] for p in pos], [p[1] for p in pos], marker=markers[i % len(markers)],
-                linestyle="-" if len(pos) > 1 else "none", label=label or None)
+        label = ", ".join(f"{short(k)} = {v or 'base'}"
+                          for k, v in zip(([by] if by else []) + others, key))
+        c = colours.index(key[0]) if by else styles.index(key)
+        j = styles.index(key[1:] if by else key) if by else 0
+        ax.plot([p[0] for p in pos], [p[1] for p in pos], color=f"C{c % 10}",
+                marker=markers[j % len(markers)],
+                linestyle=dashes[j % len(dashes)] if len(pos) > 1 else "none", label=label or None)
     if not xs_num:
         ax.set_xticks(range(len(categories)), categories)
     ax.set_xlabel(x)
@@ -97,7 +105,7 @@ def plot_sweep(sweep_dir: Path, x: str, y: str = "runout", by: str | None = None
         title += f"\n{left_out} case(s) not shown (failed or not finished)"
     ax.set_title(title, fontsize=10)
     ax.grid(alpha=0.3)
-    if groups and any(groups):
+    if by or others:
         ax.legend(fontsize=8)
     fig.tight_layout()
     out = Path(out) if out else Path(sweep_dir) / f"{y}_vs_{short(x)}.png"
