@@ -171,10 +171,14 @@ def test_refuses_to_run_once_per_rank(tmp_path, capsys, monkeypatch):
 
 
 def test_case_environment_and_command(tmp_path):
-    env = child_env({"OMPI_COMM_WORLD_RANK": "1", "PMIX_RANK": "1", "PMI_FD": "3",
-                     "HOME": "/root", "OPENBLAS_NUM_THREADS": "8", "PYTHONPATH": "/x"})
-    assert "OMPI_COMM_WORLD_RANK" not in env and "PMIX_RANK" not in env and "PMI_FD" not in env
+    user = {"HOME": "/root", "OPENBLAS_NUM_THREADS": "8", "PYTHONPATH": "/x",
+            "OMPI_MCA_rmaps_base_oversubscribe": "1", "OMPI_ALLOW_RUN_AS_ROOT": "1"}
+    env = child_env({**user, "OMPI_COMM_WORLD_RANK": "1", "PMIX_RANK": "1", "PMI_FD": "3",
+                     "OMPI_MCA_orte_hnp_uri": "x"})   # in an MPI rank: launcher's variables go
+    assert not any(k.startswith(("OMPI_COMM", "PMI", "OMPI_MCA")) for k in env), env
     assert env["HOME"] == "/root" and env["OPENBLAS_NUM_THREADS"] == "1"
+    assert env["OMPI_ALLOW_RUN_AS_ROOT"] == "1"
+    assert child_env(user)["OMPI_MCA_rmaps_base_oversubscribe"] == "1"   # no launcher: kept
     assert env["PYTHONPATH"].split(os.pathsep) == [str(ROOT), "/x"]  # this tree's dpcollapse
     path = _write(tmp_path, f"base: {RIGID}\nranks_per_case: 2\ngrid: {{geometry.height: [0.2]}}\n")
     sw = load_sweep(path)
@@ -203,6 +207,17 @@ def test_local_executor_records_every_case_and_skips_them_again(local_sweep):
     assert _stamps(out) == before   # no case ran again
     assert again.stderr.count("skipped") == 3
     _check_tiny(out)
+
+
+def test_case_on_two_ranks(tmp_path):
+    path = _write(tmp_path, f"base: {RIGID}\nranks_per_case: 2\n"
+                            "set: {geometry.mesh_size: 0.04, time.end_time: 0.01}\n"
+                            "grid: {material.friction_angle: [25.5]}\n")
+    proc = _run(PY + ["sweep", path, "--out", tmp_path / "out"])
+    assert proc.returncode == 0, proc.stderr
+    run = json.loads((tmp_path / "out" / "runs" / "friction_angle=25.5" / "run.json").read_text())
+    assert (run["status"], run["mpi_size"]) == ("end_time", 2)
+    assert _rows(tmp_path / "out")["friction_angle=25.5"]["status"] == "end_time"
 
 
 def test_plot_sweep(local_sweep):

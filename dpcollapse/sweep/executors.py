@@ -65,11 +65,21 @@ def _package_root() -> str | None:
     return None if root.name in ("site-packages", "dist-packages") else str(root)
 
 
+#: Variables only a launcher sets in its ranks' environment: their presence means this
+#: process is an MPI rank (an mpi4py.futures worker, a task of srun).
+RANK_VARIABLES = ("OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK", "MV2_COMM_WORLD_RANK")
+#: The user's Open MPI settings that a case may need (e.g. its own mpirun as root).
+KEEP = ("OMPI_ALLOW_RUN_AS_ROOT", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM")
+
+
 def child_env(base: dict | None = None) -> dict:
-    """The environment of a case: no MPI launcher variables, one BLAS/OpenMP thread,
-    this dpcollapse first on PYTHONPATH."""
-    env = {k: v for k, v in (os.environ if base is None else base).items()
-           if not k.startswith(LAUNCHER_PREFIXES)}
+    """The environment of a case: one BLAS/OpenMP thread, this dpcollapse first on
+    PYTHONPATH, and, when this process is itself an MPI rank, none of the launcher's
+    variables (outside a launcher the user's ``OMPI_MCA_*`` settings are kept)."""
+    src = os.environ if base is None else base
+    rank = any(v in src for v in RANK_VARIABLES)
+    env = {k: v for k, v in src.items()
+           if not (rank and k.startswith(LAUNCHER_PREFIXES) and k not in KEEP)}
     env["OPENBLAS_NUM_THREADS"] = env["OMP_NUM_THREADS"] = "1"
     root = _package_root()
     if root:
