@@ -185,6 +185,22 @@ def test_case_environment_and_command(tmp_path):
     cmd = case_command(sw, sw.cases[0], tmp_path / "out", resume=True)
     assert cmd[:3] == ["mpirun", "-n", "2"] and cmd[-2:] == ["--quiet", "--resume"]
     assert cmd[cmd.index("--set") + 1] == "geometry.height=0.2"
+    assert case_command(sw, sw.cases[0], tmp_path, False, launcher="srun -n {ranks}")[:3] == [
+        "srun", "-n", "2"]
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "--executor", "slurm", "--out", str(out),
+                 "--set", "time.end_time=0.01"]) == 0
+    script = (out / "sweep.sbatch").read_text()
+    assert "#SBATCH --ntasks=2" in script and "#SBATCH --array=0-0\n" in script
+    assert "--set time.end_time=0.01 --fingerprint " in script
+
+
+def test_driver_imports_no_dolfinx():
+    code = ("import sys, dpcollapse.cli, dpcollapse.sweep.spec, dpcollapse.sweep.executors, "
+            "dpcollapse.sweep.collect, dpcollapse.sweep.plot; "
+            "print(sorted(m for m in ('dolfinx', 'petsc4py', 'ufl', 'gmsh') if m in sys.modules))")
+    proc = _run([sys.executable, "-c", code])
+    assert proc.returncode == 0 and proc.stdout.strip() == "[]", proc.stdout + proc.stderr
 
 
 # ----------------------------------------------------------------------------- executors
