@@ -359,3 +359,21 @@ def test_slope_study_is_the_twelve_slope_configs():
                                           [f"boundary.channel_width={width}".replace("None", "null")]))
         cfg["output"] = case.config["output"]
         assert case.config == json.loads(json.dumps(cfg)), case.name
+
+
+def test_case_that_cannot_start_is_recorded(tmp_path, capsys):
+    path = _write(tmp_path, f"base: {RIGID}\nranks_per_case: 2\nlauncher: no-such-launcher "
+                            "-n {ranks}\ngrid: {material.friction_angle: [25.5, 30]}\n")
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "--out", str(out)]) == 0
+    rows = _rows(out)
+    assert [(r["status"], r["exit_code"]) for r in rows.values()] == [("failed", "127")] * 2
+    assert "No such file or directory: 'no-such-launcher'" in rows["friction_angle=30"]["error"]
+    log = out / "logs" / "friction_angle=30.log"
+    assert main(["sweep", str(path), "--out", str(out)]) == 0  # kept as failed
+    assert log.read_text().count(" fresh: ") == 1
+    assert main(["sweep", str(path), "--out", str(out), "--retry-failed"]) == 0
+    assert log.read_text().count(" fresh: ") == 2   # tried again, from scratch
+    record = json.loads((out / "records" / "friction_angle=30.json").read_text())
+    assert [a["exit_code"] for a in record["attempts"]] == [127]
+    assert "2 cases: 0 done, 2 failed" in capsys.readouterr().out

@@ -112,6 +112,18 @@ def case_state(out: Path, case: Case) -> CaseState:
     return CaseState(state, status, code, run, record, resumable)
 
 
+def _last_line(path: Path) -> str:
+    """The last line of a case's log (its error line, as a rule), at most 200 characters."""
+    try:
+        with Path(path).open("rb") as fh:
+            fh.seek(max(0, fh.seek(0, os.SEEK_END) - 4096))
+            lines = [ln.strip() for ln in fh.read().decode(errors="replace").splitlines()]
+    except OSError:
+        return f"see {path.parent.name}/{path.name}"
+    lines = [ln for ln in lines if ln]
+    return (lines[-1][:200] if lines else "no output") + f" (see logs/{path.name})"
+
+
 def _total_wall(run: dict) -> float | None:
     """The time loop's wall time over every segment of a resumed run [s]."""
     walls = [s.get("timings", {}).get("total") for s in run.get("segments", [])]
@@ -143,7 +155,7 @@ def case_row(sweep: Sweep, out: Path, case: Case) -> dict:
     if isinstance(front, (int, float)) and geometry.get("shape", "trapezoid") != "layer":
         row["runout"] = front - geometry.get("base_length", 0.0)
     row["error"] = summary.get("error") or (
-        f"exit {cs.exit_code}: see logs/{case.name}.log" if cs.state == "failed" else "")
+        f"exit {cs.exit_code}: {_last_line(log_path(out, case))}" if cs.state == "failed" else "")
     for key in [k for k in summary if k.startswith("front_")] + list(sweep.spec.collect):
         row[key] = summary.get(key)
     return {k: ("" if v is None else v) for k, v in row.items()}

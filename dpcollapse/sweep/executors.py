@@ -154,9 +154,13 @@ def run_case(task: dict) -> dict:
         fh.write(f"# {time.strftime('%Y-%m-%dT%H:%M:%S%z')} {task['action']}: "
                  f"{shlex.join(task['cmd'])}\n")
         fh.flush()
-        proc = subprocess.Popen(task["cmd"], stdout=fh, stderr=subprocess.STDOUT,
-                                stdin=subprocess.DEVNULL, cwd=task["cwd"], env=child_env(),
-                                process_group=0)
+        try:
+            proc = subprocess.Popen(task["cmd"], stdout=fh, stderr=subprocess.STDOUT,
+                                    stdin=subprocess.DEVNULL, cwd=task["cwd"], env=child_env(),
+                                    process_group=0)
+        except OSError as exc:  # e.g. the launcher is not installed: the shell's status 127
+            fh.write(f"dpcollapse sweep: cannot start the case: {exc}\n")
+            return _record_end(task, record, 127, t0)
         with _live_lock:
             _live[proc.pid] = proc
         if _stop.is_set():  # the sweep was stopped while this case was starting
@@ -173,7 +177,10 @@ def run_case(task: dict) -> dict:
                 signal.signal(s, h)
             with _live_lock:
                 _live.pop(proc.pid, None)
-    rc = 128 - rc if rc < 0 else rc
+    return _record_end(task, record, 128 - rc if rc < 0 else rc, t0)
+
+
+def _record_end(task: dict, record: dict, rc: int, t0: float) -> dict:
     record["attempts"][-1].update(exit_code=rc, process_time=time.perf_counter() - t0,
                                   finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
     record.update(running=False, exit_code=rc)
@@ -300,7 +307,11 @@ def run_sweep(sweep: Sweep, out: Path, executor: str = "local", jobs: int = 1,
             finished, pending = cf.wait(pending, timeout=1.0, return_when=cf.FIRST_COMPLETED)
             for fut in finished:
                 case = futures[fut]
-                rec = fut.result()
+                try:
+                    rec = fut.result()
+                except Exception as exc:  # could not start or record the case: say so, go on
+                    log.error("%s: not run: %s: %s", case.name, type(exc).__name__, exc)
+                    rec = {"exit_code": None}
                 rows[case.name] = case_row(sweep, out, case)
                 table = collect(sweep, out, rows)
                 _report(case, rows[case.name], rec)
