@@ -151,18 +151,30 @@ def summary(cfg: Config, source: Path | str | None = None) -> str:
 @cli.command()
 @_config_arg
 @_set_option
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--out", type=str, default=None,
               help="Run directory (default: output.directory of the config).")
 @click.option("--quiet", is_flag=True, help="No progress bar; warnings and errors only.")
 @click.option("--resume", is_flag=True, help="Continue from the run directory's last checkpoint.")
-def run(config: Path, overrides: tuple[str, ...], out: Path | None, quiet: bool,
-        resume: bool) -> int:
+@click.option("--overwrite", is_flag=True,
+              help="Replace the run already in the run directory (all of its files).")
+def run(config: Path, overrides: tuple[str, ...], out: str | None, quiet: bool,
+        resume: bool, overwrite: bool) -> int:
     """Simulate the collapse described by CONFIG."""
+    if resume and overwrite:
+        raise click.UsageError("--resume and --overwrite exclude each other")
     cfg = load_config(config, overrides)
     if quiet:
         _setup_logging(quiet=True)
-    run_simulation = _lazy("dpcollapse.simulation", "run_simulation")
-    run_simulation(cfg, run_dir=Path(out or cfg.output.directory), quiet=quiet, resume=resume)
+    from mpi4py import MPI
+
+    from dpcollapse.config import config_to_dict
+    from dpcollapse.io.rundir import claim_on_root
+
+    run_dir = cfg.output.directory if out is None else out
+    mode = "resume" if resume else "overwrite" if overwrite else "new"
+    with claim_on_root(MPI.COMM_WORLD, run_dir, config_to_dict(cfg), mode) as claimed:
+        run_simulation = _lazy("dpcollapse.simulation", "run_simulation")
+        run_simulation(cfg, run_dir=claimed.path, quiet=quiet, resume=resume)
     return 0
 
 
