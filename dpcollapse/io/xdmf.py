@@ -37,6 +37,7 @@ float32-rounded values), so the master states ``NumberType``/``Precision`` read 
 from __future__ import annotations
 
 import copy
+import logging
 import os
 import re
 import xml.etree.ElementTree as ET
@@ -51,6 +52,7 @@ from dpcollapse import compat
 __all__ = ["XDMFTimeSeries", "check_output_function"]
 
 _XDMF_HEADER = '<?xml version="1.0"?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n'
+log = logging.getLogger(__name__)
 _STEP_RE = re.compile(r"^step_(\d{6,})$")
 _XI_NS = "http://www.w3.org/2001/XInclude"
 _NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
@@ -130,8 +132,15 @@ class XDMFTimeSeries:
         def setup():
             self.fields_dir.mkdir(parents=True, exist_ok=True)
             if self.master.exists():
-                self._grids = self._read_master(self.master)
-                self._steps = [self._grid_step(g) for g in self._grids]
+                try:
+                    self._grids = self._read_master(self.master)
+                    self._steps = [self._grid_step(g) for g in self._grids]
+                except (ET.ParseError, ValueError) as exc:
+                    from dpcollapse.errors import ConfigError
+
+                    raise ConfigError(f"{self.master} is damaged ({exc}); start the run again "
+                                      "with --overwrite") from None
+                self._drop_missing_steps()
             stale = Path(f"{self.master}.tmp")
             if stale.exists():
                 stale.unlink()
@@ -290,6 +299,22 @@ class XDMFTimeSeries:
         if match is None or time is None:
             raise ValueError(f"master grid {grid.get('Name')!r} is not a dpcollapse step")
         return int(match.group(1)), float(time.get("Value"))
+
+    def _drop_missing_steps(self) -> None:
+        """Steps whose HDF5 file is gone (deleted by hand, a disk fault) leave the master,
+        which is rewritten: it must never reference a file that does not exist."""
+        keep = []
+        for grid, (index, t) in zip(self._grids, self._steps):
+            files = {(item.text or "").strip().split(":")[0] for item in grid.iter("DataItem")}
+            if all((self.master.parent / f).exists() for f in files if f):
+                keep.append((grid, (index, t)))
+            else:
+                log.warning("%s: step %d (t = %g s) refers to a missing file: dropped",
+                            self.master.name, index, t)
+        if len(keep) != len(self._grids):
+            self._grids = [g for g, _ in keep]
+            self._steps = [s for _, s in keep]
+            self._write_master()
 
     def _read_master(self, path: Path) -> list[ET.Element]:
         root = ET.parse(path).getroot()
