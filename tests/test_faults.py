@@ -124,3 +124,32 @@ def test_damaged_xdmf_master_at_resume_names_the_file(tmp_path, capsys):
     assert _run(out, "--resume", end=0.006) == 2
     line = _one_error_line(capsys.readouterr().err)
     assert "solution.xdmf is damaged" in line and "--overwrite" in line
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 100 kB tmpfs: the run fills it within a few output steps."""
+    import subprocess
+
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=100k", "tmpfs", str(mount)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here (needs root): {proc.stderr.strip()}")
+    yield mount
+    subprocess.run(["umount", "-l", str(mount)], check=False)
+
+
+def test_full_disk_is_an_io_failure_with_whole_files(small_disk, capsys):
+    out = small_disk / "run"
+    assert _run(out, "--set", "time.checkpoint_every=1000", end=0.05) == 5
+    line = _one_error_line(capsys.readouterr().err)
+    assert "I/O failure" in line and "No space left on device" in line
+    assert not list(out.rglob("*.tmp")) and not (out / "error.log").exists()
+    root = ET.parse(out / "solution.xdmf").getroot()        # the published master is whole
+    for item in root.iter("DataItem"):
+        h5 = (item.text or "").strip().split(":")[0]
+        if h5:
+            assert (out / h5).exists(), h5
+    assert len(list((out / "fields").glob("step_*.h5"))) == len(list(root.iter("Time")))

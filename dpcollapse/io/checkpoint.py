@@ -59,8 +59,12 @@ def save_checkpoint(path: Path, tagged: TaggedMesh, u: CellwiseField, p: Cellwis
         arrays.update({f"x_{name}_{k}": v for k, v in field.to_arrays().items()})
     path = Path(path)
     tmp = path.with_name(path.stem + ".tmp.npz")
-    np.savez(tmp, **arrays)
-    _fsync(tmp)
+    try:
+        np.savez(tmp, **arrays)
+        _fsync(tmp)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     # The previous checkpoint stays as checkpoint.prev.npz until the new one is complete:
     # at every moment checkpoint.npz is a whole checkpoint (old or new) and the one before
     # it is kept, so a checkpoint corrupted later on disk falls back to its predecessor.
