@@ -20,7 +20,13 @@ from typing import Any, Sequence  # noqa: E402
 import click  # noqa: E402
 
 from dpcollapse.config import Config, load_config  # noqa: E402
-from dpcollapse.errors import ConfigError, DpcollapseError, Interrupted  # noqa: E402
+from dpcollapse.errors import (  # noqa: E402
+    ConfigError,
+    DpcollapseError,
+    InternalError,
+    Interrupted,
+    OutputError,
+)
 from dpcollapse.parallel import end_together, install_excepthook  # noqa: E402
 
 try:  # an editable install made before dpcollapse/__init__.py existed sees a namespace package
@@ -81,14 +87,50 @@ def _lazy(module: str, name: str) -> Any:
         raise
 
 
+#: Where a bug's traceback goes: the run directory once ``run`` has claimed one.
+_error_log_dir: Path | None = None
+
+
 class _Group(click.Group):
-    """Turns Ctrl-C inside a command into :class:`Interrupted` (exit 130, one line)."""
+    """Turns Ctrl-C inside a command into :class:`Interrupted` (exit 130, one line), an I/O
+    failure into :class:`OutputError` (exit 5) and any other exception — a bug — into
+    :class:`InternalError` (exit 1) whose traceback goes to ``error.log``."""
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
         except KeyboardInterrupt:
             raise Interrupted("interrupted") from None
+        except (DpcollapseError, click.ClickException, click.Abort, click.exceptions.Exit,
+                SystemExit):
+            raise
+        except OSError as exc:
+            where = f" ({exc.filename})" if exc.filename else ""
+            raise OutputError(f"I/O failure: {exc.strerror or exc}{where}") from None
+        except Exception as exc:
+            log = _write_traceback()
+            raise InternalError(f"internal error: {type(exc).__name__}: {exc} (a bug; traceback "
+                                f"in {log})") from None
+
+
+def _write_traceback() -> str:
+    """Write the current exception's traceback to error.log; returns where it went."""
+    import tempfile
+    import traceback
+
+    text = traceback.format_exc()
+    for directory in (_error_log_dir, Path(tempfile.gettempdir())):
+        if directory is None:
+            continue
+        name = "error.log" if directory == _error_log_dir else f"dpcollapse-error-{os.getpid()}.log"
+        path = Path(directory) / name
+        try:
+            path.write_text(text)
+            return str(path)
+        except OSError:
+            path.unlink(missing_ok=True)   # no half-written log left behind
+            continue
+    return "nowhere: no writable location"
 
 
 _set_option = click.option(
@@ -151,18 +193,32 @@ def summary(cfg: Config, source: Path | str | None = None) -> str:
 @cli.command()
 @_config_arg
 @_set_option
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--out", type=str, default=None,
               help="Run directory (default: output.directory of the config).")
 @click.option("--quiet", is_flag=True, help="No progress bar; warnings and errors only.")
 @click.option("--resume", is_flag=True, help="Continue from the run directory's last checkpoint.")
-def run(config: Path, overrides: tuple[str, ...], out: Path | None, quiet: bool,
-        resume: bool) -> int:
+@click.option("--overwrite", is_flag=True,
+              help="Replace the run already in the run directory (all of its files).")
+def run(config: Path, overrides: tuple[str, ...], out: str | None, quiet: bool,
+        resume: bool, overwrite: bool) -> int:
     """Simulate the collapse described by CONFIG."""
+    if resume and overwrite:
+        raise click.UsageError("--resume and --overwrite exclude each other")
     cfg = load_config(config, overrides)
     if quiet:
         _setup_logging(quiet=True)
-    run_simulation = _lazy("dpcollapse.simulation", "run_simulation")
-    run_simulation(cfg, run_dir=Path(out or cfg.output.directory), quiet=quiet, resume=resume)
+    from mpi4py import MPI
+
+    from dpcollapse.config import config_to_dict
+    from dpcollapse.io.rundir import claim_on_root
+
+    run_dir = cfg.output.directory if out is None else out
+    mode = "resume" if resume else "overwrite" if overwrite else "new"
+    global _error_log_dir
+    with claim_on_root(MPI.COMM_WORLD, run_dir, config_to_dict(cfg), mode) as claimed:
+        _error_log_dir = claimed.path
+        run_simulation = _lazy("dpcollapse.simulation", "run_simulation")
+        run_simulation(cfg, run_dir=claimed.path, quiet=quiet, resume=resume)
     return 0
 
 
@@ -340,8 +396,16 @@ def main(argv: list[str] | None = None) -> int:
     return rv if isinstance(rv, int) else 0
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
 def entry() -> None:
-    """Console script ``dpcollapse``."""
+    """Console script ``dpcollapse``: SIGTERM is an interrupt from the start (exit 130 with
+    one line, also while the run is being set up), as Ctrl-C is."""
+    import signal
+
+    signal.signal(signal.SIGTERM, _interrupt)
     install_excepthook()
     sys.exit(main())
 

@@ -6,6 +6,8 @@
 | 2 | bad input (config, command line, missing file) |
 | 3 | the nonlinear solver did not converge, even at the smallest time step |
 | 4 | the mesh inverted or degenerated and could not be repaired by remeshing |
+| 5 | an I/O failure during the run (disk full, permissions, a file removed under it) |
+| 1 | a bug: one line, the traceback in ``error.log`` (run directory, or the temp dir) |
 | 130 | interrupted (Ctrl-C / SIGTERM); the run directory stays valid and can be resumed |
 """
 
@@ -32,6 +34,18 @@ class MeshError(DpcollapseError):
     """A cell inverted, or the domain degenerated beyond repair."""
 
     exit_code = 4
+
+
+class OutputError(DpcollapseError):
+    """Reading or writing the run's files failed during the run (disk full, permissions)."""
+
+    exit_code = 5
+
+
+class InternalError(DpcollapseError):
+    """A bug: the message points at the log file that holds the traceback."""
+
+    exit_code = 1
 
 
 class Interrupted(DpcollapseError):

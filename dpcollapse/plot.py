@@ -92,6 +92,12 @@ def plot_run(run_dir: Path, times: list[float] | None = None) -> Path:
     series = read_series(run_dir)
     available = np.array([s[0] for s in series])
     if times:
+        lo, hi = float(available.min()), float(available.max())
+        gap = float(np.max(np.diff(available))) if len(available) > 1 else 0.0
+        outside = [t for t in times if t < lo - gap or t > hi + gap]
+        if outside:
+            raise ConfigError(f"--times = {','.join(f'{t:g}' for t in outside)}: outside the run's "
+                              f"output times [{lo:g}, {hi:g}] s")
         picks = sorted({int(np.argmin(np.abs(available - t))) for t in times})
     else:
         picks = sorted(set(np.linspace(0, len(series) - 1, min(6, len(series))).round().astype(int)))

@@ -103,28 +103,42 @@ def test_help_and_version(capsys):
 def test_run_calls_simulation(fake_module, tmp_path):
     calls = fake_module("dpcollapse.simulation", "run_simulation")
     assert main(["run", RIGID, "--set", "time.end_time=0.1", "--out", str(tmp_path / "r"),
-                 "--quiet", "--resume"]) == 0
+                 "--quiet"]) == 0
     (name, args, kwargs), = calls
     assert args[0].time.end_time == 0.1
-    assert kwargs == {"run_dir": tmp_path / "r", "quiet": True, "resume": True}
+    assert kwargs == {"run_dir": tmp_path / "r", "quiet": True, "resume": False}
 
 
-def test_run_default_dir(fake_module):
+def test_run_resume_calls_simulation(fake_module, tmp_path):
+    """--resume of a run with a checkpoint and the same config (end time may change)."""
+    from dpcollapse.config import load_config, save_config
+
+    run_dir = tmp_path / "r"
+    save_config(load_config(RIGID, ["time.end_time=0.05"]), run_dir / "config.yaml")
+    (run_dir / "checkpoint.npz").write_bytes(b"")
+    calls = fake_module("dpcollapse.simulation", "run_simulation")
+    assert main(["run", RIGID, "--set", "time.end_time=0.1", "--out", str(run_dir),
+                 "--quiet", "--resume"]) == 0
+    assert calls[0][2] == {"run_dir": run_dir, "quiet": True, "resume": True}
+
+
+def test_run_default_dir(fake_module, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
     calls = fake_module("dpcollapse.simulation", "run_simulation")
     assert main(["run", RIGID]) == 0
     assert calls[0][2] == {"run_dir": Path("runs/rigid"), "quiet": False, "resume": False}
 
 
-def test_run_error_exit_code(fake_module, capsys):
+def test_run_error_exit_code(fake_module, capsys, tmp_path):
     fake_module("dpcollapse.simulation", "run_simulation",
                 ConvergenceError("no convergence at t = 0.1 s with dt = 1e-6 s"))
-    assert main(["run", RIGID]) == 3
+    assert main(["run", RIGID, "--out", str(tmp_path / "r")]) == 3
     assert "no convergence" in _one_line(capsys.readouterr().err)
 
 
-def test_run_interrupted(fake_module, capsys):
+def test_run_interrupted(fake_module, capsys, tmp_path):
     fake_module("dpcollapse.simulation", "run_simulation", KeyboardInterrupt())
-    assert main(["run", RIGID]) == 130
+    assert main(["run", RIGID, "--out", str(tmp_path / "r")]) == 130
     _one_line(capsys.readouterr().err)
 
 

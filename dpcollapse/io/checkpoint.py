@@ -59,14 +59,88 @@ def save_checkpoint(path: Path, tagged: TaggedMesh, u: CellwiseField, p: Cellwis
         arrays.update({f"x_{name}_{k}": v for k, v in field.to_arrays().items()})
     path = Path(path)
     tmp = path.with_name(path.stem + ".tmp.npz")
-    np.savez(tmp, **arrays)
+    try:
+        np.savez(tmp, **arrays)
+        _fsync(tmp)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    # The previous checkpoint stays as checkpoint.prev.npz until the new one is complete:
+    # at every moment checkpoint.npz is a whole checkpoint (old or new) and the one before
+    # it is kept, so a checkpoint corrupted later on disk falls back to its predecessor.
+    if path.exists():
+        link = previous_path(path).with_suffix(".link.tmp")
+        link.unlink(missing_ok=True)
+        os.link(path, link)
+        os.replace(link, previous_path(path))
     os.replace(tmp, path)
+
+
+def previous_path(path: Path) -> Path:
+    """checkpoint.npz -> checkpoint.prev.npz"""
+    path = Path(path)
+    return path.with_name(path.stem + ".prev" + path.suffix)
+
+
+def _fsync(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+_REQUIRED = ("mesh_x", "mesh_cells", "mesh_edges", "mesh_edge_tags", "state")
+
+
+def _readable(path: Path) -> str | None:
+    """None if ``path`` is a complete checkpoint, else what is wrong with it."""
+    try:
+        with np.load(path) as data:
+            missing = [k for k in _REQUIRED if k not in data.files]
+            if missing:
+                return f"no {', '.join(missing)}"
+            for k in data.files:          # reads (and CRC-checks) every array
+                data[k]
+            json.loads(str(data["state"]))
+    except FileNotFoundError:
+        return "missing"
+    except Exception as exc:              # zip, CRC, pickle and JSON errors alike
+        return f"{type(exc).__name__}: {exc}"[:200]
+    return None
+
+
+def choose_checkpoint(path: Path, comm) -> Path:
+    """The checkpoint to resume from: ``path`` if it is whole, else the previous one
+    (collective: rank 0 checks and decides). ConfigError if neither is usable."""
+    from dpcollapse.errors import ConfigError
+
+    path = Path(path)
+    choice, problems = None, []
+    if comm.rank == 0:
+        for candidate in (path, previous_path(path)):
+            problem = _readable(candidate)
+            if problem is None:
+                choice = str(candidate)
+                break
+            problems.append(f"{candidate.name}: {problem}")
+    choice, problems = comm.bcast((choice, problems), root=0)
+    if choice is None:
+        raise ConfigError(f"--resume: no usable checkpoint in {path.parent} ({'; '.join(problems)})"
+                          "; start the run again with --overwrite")
+    if problems and comm.rank == 0:
+        import logging
+
+        logging.getLogger(__name__).warning("%s; resuming from %s instead", problems[0],
+                                            Path(choice).name)
+    return Path(choice)
 
 
 def load_checkpoint(path: Path, comm) -> tuple[TaggedMesh, CellwiseField, CellwiseField, dict, dict]:
     """Rebuild the mesh (distributed over ``comm``) and the fields from a checkpoint:
-    (mesh, u, p, state, extra fields by name)."""
-    data = np.load(path)
+    (mesh, u, p, state, extra fields by name). A damaged ``path`` falls back to the
+    previous checkpoint (:func:`choose_checkpoint`)."""
+    data = np.load(choose_checkpoint(path, comm))
     names = [str(n) for n in data["extra_fields"]] if "extra_fields" in data.files else []
     extra = {name: CellwiseField.from_arrays({k[len(name) + 3:]: data[k] for k in data.files
                                               if k.startswith(f"x_{name}_")}) for name in names}

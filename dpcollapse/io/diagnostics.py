@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import os
 from pathlib import Path
 
 COLUMNS = [
@@ -21,14 +22,16 @@ class DiagnosticsWriter:
             return
         rows = []
         if resume_after is not None and self.path.exists():
-            with self.path.open() as f:
-                rows = [r for r in csv.DictReader(f) if float(r["t"]) <= resume_after + 1e-12]
-        self._file = self.path.open("w", newline="")
+            rows = [r for r in complete_rows(self.path) if float(r["t"]) <= resume_after + 1e-12]
+        # the kept rows go to a new file that replaces the old one whole
+        tmp = self.path.with_name(self.path.name + ".tmp")
+        with tmp.open("w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=COLUMNS, extrasaction="ignore")
+            writer.writeheader()
+            writer.writerows(rows)
+        os.replace(tmp, self.path)
+        self._file = self.path.open("a", newline="")
         self._writer = csv.DictWriter(self._file, fieldnames=COLUMNS)
-        self._writer.writeheader()
-        for r in rows:
-            self._writer.writerow(r)
-        self._file.flush()
 
     def write(self, row: dict) -> None:
         if self.rank != 0:
@@ -39,6 +42,28 @@ class DiagnosticsWriter:
     def close(self) -> None:
         if self.rank == 0:
             self._file.close()
+
+
+def complete_rows(path: Path) -> list[dict[str, str]]:
+    """The rows of a diagnostics file that were written whole: a last line cut short by a
+    crash or a full disk (no newline, missing or unparsable fields) is left out, and so is
+    any row after it."""
+    text = Path(path).read_text(errors="replace")
+    lines = text.split("\n")
+    header = lines[0].split(",")
+    if "t" not in header or len(lines) < 2:
+        return []
+    rows = []
+    for line in lines[1:-1]:            # the piece after the last newline is incomplete
+        cells = line.split(",")
+        if len(cells) != len(header):
+            break
+        try:
+            [float(c) for c in cells]
+        except ValueError:
+            break
+        rows.append(dict(zip(header, cells)))
+    return rows
 
 
 def read_diagnostics(path: Path) -> dict[str, list[float]]:

@@ -37,7 +37,11 @@ float32-rounded values), so the master states ``NumberType``/``Precision`` read 
 from __future__ import annotations
 
 import copy
+import errno
+import logging
 import os
+import tempfile
+from contextlib import contextmanager
 import re
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -51,6 +55,7 @@ from dpcollapse import compat
 __all__ = ["XDMFTimeSeries", "check_output_function"]
 
 _XDMF_HEADER = '<?xml version="1.0"?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n'
+log = logging.getLogger(__name__)
 _STEP_RE = re.compile(r"^step_(\d{6,})$")
 _XI_NS = "http://www.w3.org/2001/XInclude"
 _NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
@@ -76,6 +81,41 @@ def check_output_function(fn) -> None:
         f"function {fn.name!r} is on a {family} degree-{degree} space; XDMF output takes only "
         "P1 (vertex) or DG0 (cell) functions: interpolate into an output space first"
     )
+
+
+class _Captured:
+    text = ""
+
+    def first_line(self, containing: str) -> str:
+        """The first line of the captured text that contains ``containing``, stripped."""
+        for line in self.text.splitlines():
+            if containing in line:
+                return " ".join(line.split())[:160]
+        return ""
+
+
+@contextmanager
+def c_stderr_captured():
+    """Route file descriptor 2 (where C libraries such as HDF5 print) into a temporary file
+    for the duration of the block; the text is kept on the yielded object, and written
+    back to stderr if the block succeeds (so warnings are not lost)."""
+    captured = _Captured()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile(mode="w+b") as sink:
+        os.dup2(sink.fileno(), 2)
+        failed = False
+        try:
+            yield captured
+        except BaseException:
+            failed = True
+            raise
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            captured.text = sink.read().decode(errors="replace")
+            if captured.text and not failed:
+                os.write(2, captured.text.encode())
 
 
 def _fsync_path(path: Path) -> None:
@@ -130,8 +170,15 @@ class XDMFTimeSeries:
         def setup():
             self.fields_dir.mkdir(parents=True, exist_ok=True)
             if self.master.exists():
-                self._grids = self._read_master(self.master)
-                self._steps = [self._grid_step(g) for g in self._grids]
+                try:
+                    self._grids = self._read_master(self.master)
+                    self._steps = [self._grid_step(g) for g in self._grids]
+                except (ET.ParseError, ValueError) as exc:
+                    from dpcollapse.errors import ConfigError
+
+                    raise ConfigError(f"{self.master} is damaged ({exc}); start the run again "
+                                      "with --overwrite") from None
+                self._drop_missing_steps()
             stale = Path(f"{self.master}.tmp")
             if stale.exists():
                 stale.unlink()
@@ -173,7 +220,17 @@ class XDMFTimeSeries:
 
         index = self._next_index
         step_xdmf = self.step_path(index)
-        compat.write_xdmf_step(self.comm, str(step_xdmf), mesh, functions, t)
+        try:
+            with c_stderr_captured() as captured:   # HDF5 prints its error stack there
+                compat.write_xdmf_step(self.comm, str(step_xdmf), mesh, functions, t)
+        except RuntimeError as exc:  # HDF5 reports a full disk or a lost file this way
+            if self.comm.rank == 0:
+                for path in (step_xdmf, step_xdmf.with_suffix(".h5")):
+                    path.unlink(missing_ok=True)
+            reason = re.search(r"error message = '([^']+)'", captured.text)
+            detail = reason.group(1) if reason else str(exc)
+            raise OSError(errno.EIO, f"writing {step_xdmf.name} failed ({detail})",
+                          str(step_xdmf.with_suffix(".h5"))) from None
         self.comm.Barrier()  # every rank's share of the H5 file is closed
 
         def publish():
@@ -291,6 +348,22 @@ class XDMFTimeSeries:
             raise ValueError(f"master grid {grid.get('Name')!r} is not a dpcollapse step")
         return int(match.group(1)), float(time.get("Value"))
 
+    def _drop_missing_steps(self) -> None:
+        """Steps whose HDF5 file is gone (deleted by hand, a disk fault) leave the master,
+        which is rewritten: it must never reference a file that does not exist."""
+        keep = []
+        for grid, (index, t) in zip(self._grids, self._steps):
+            files = {(item.text or "").strip().split(":")[0] for item in grid.iter("DataItem")}
+            if all((self.master.parent / f).exists() for f in files if f):
+                keep.append((grid, (index, t)))
+            else:
+                log.warning("%s: step %d (t = %g s) refers to a missing file: dropped",
+                            self.master.name, index, t)
+        if len(keep) != len(self._grids):
+            self._grids = [g for g, _ in keep]
+            self._steps = [s for _, s in keep]
+            self._write_master()
+
     def _read_master(self, path: Path) -> list[ET.Element]:
         root = ET.parse(path).getroot()
         collection = root.find("Domain/Grid")
@@ -313,14 +386,18 @@ class XDMFTimeSeries:
         collection.extend(self._grids)
         ET.indent(root, space="  ")
         tmp = Path(f"{self.master}.tmp")
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(_XDMF_HEADER)
-            f.write(ET.tostring(root, encoding="unicode"))
-            f.write("\n")
-            f.flush()
-            if self.durable:
-                os.fsync(f.fileno())
-        os.replace(tmp, self.master)
+        try:
+            with open(tmp, "w", encoding="utf-8") as f:
+                f.write(_XDMF_HEADER)
+                f.write(ET.tostring(root, encoding="unicode"))
+                f.write("\n")
+                f.flush()
+                if self.durable:
+                    os.fsync(f.fileno())
+            os.replace(tmp, self.master)
+        except BaseException:
+            tmp.unlink(missing_ok=True)   # the published master stays as it was
+            raise
         if self.durable:
             fd = os.open(self.master.parent, os.O_RDONLY)
             try:

@@ -1,0 +1,231 @@
+"""A run directory holds exactly one run: claiming it for a new run, a resume or an overwrite.
+
+Rules (``dpcollapse run``):
+
+* **new run** (default): the directory must not hold a run yet; one that does is refused
+  with exit 2, naming ``--resume`` and ``--overwrite``;
+* ``--overwrite``: the old run's files are removed whole before the new run starts (only
+  the files a run writes: anything else in the directory is left alone);
+* ``--resume``: there must be a checkpoint, and the config may differ from the run's own
+  ``config.yaml`` only in :data:`RESUMABLE_KEYS` (end time, output cadence, rest criteria);
+  any other difference is exit 2 naming the keys.
+
+A lock (``.lock``, an exclusive ``flock`` held by rank 0 for the run's whole life) refuses
+a second writer; the kernel drops it when the process ends however it ends, so a crashed
+run never leaves a stale lock on the same machine (the file itself, with the holder's
+host and pid, stays as a note). On file systems without working ``flock`` (some NFS
+mounts) the lock is advisory only.
+
+Bad output locations (an empty path, a path under a file, a name too long for the file
+system, a directory that cannot be written) are exit 2 with one line.
+"""
+
+from __future__ import annotations
+
+import errno
+import fcntl
+import os
+import platform
+import shutil
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from dpcollapse.config import config_to_dict, validate_config
+from dpcollapse.errors import ConfigError
+
+#: Files and folders a run writes (removed whole by --overwrite).
+RUN_FILES = ("run.json", "config.yaml", "diagnostics.csv", "solution.xdmf", "checkpoint.npz",
+             "checkpoint.prev.npz", "collapse.png", "error.log")
+RUN_DIRS = ("fields", "vtx")
+#: Config keys that may change on --resume: when to stop and how often to write.
+RESUMABLE_KEYS = ("time.end_time", "time.max_steps", "time.output_every",
+                  "time.checkpoint_every", "time.rest_speed", "time.rest_duration",
+                  "output.directory")
+LOCK_NAME = ".lock"
+
+
+def holds_run(run_dir: Path) -> bool:
+    """Whether ``run_dir`` holds (part of) a run."""
+    return any((run_dir / name).exists() for name in RUN_FILES + RUN_DIRS)
+
+
+def check_location(run_dir: Path | str) -> Path:
+    """The run directory as a usable path, or ConfigError naming what is wrong with it."""
+    text = str(run_dir)
+    if not text.strip():
+        raise ConfigError("--out = '': the run directory must be a non-empty path")
+    path = Path(run_dir)
+    try:
+        max_name = os.pathconf(_existing_ancestor(path), "PC_NAME_MAX")
+    except (OSError, ValueError):
+        max_name = 255
+    for part in path.parts:
+        if len(part.encode()) > max_name:
+            raise ConfigError(f"--out = {text[:60]}...: a path component has {len(part.encode())} "
+                              f"bytes, more than the file system allows ({max_name})")
+    for parent in [path, *path.parents]:
+        if parent.exists() and not parent.is_dir():
+            raise ConfigError(f"--out = {text}: {parent} is a file, not a directory")
+    return path
+
+
+def _existing_ancestor(path: Path) -> Path:
+    for p in [path.absolute(), *path.absolute().parents]:
+        try:
+            if p.exists():
+                return p
+        except OSError:      # a component too long to stat
+            continue
+    return Path("/")
+
+
+class RunDirectory:
+    """The claim of one process (rank 0) on a run directory; release it with ``release()``
+    or use it as a context manager."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self._lock_fd: int | None = None
+
+    # ------------------------------------------------------------------ claim
+    def claim(self, config: dict[str, Any], mode: str = "new") -> None:
+        """Create/lock the directory and apply the rule of ``mode`` (new, resume, overwrite)."""
+        path = check_location(self.path)
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ConfigError(f"--out = {path}: cannot create the run directory "
+                              f"({exc.strerror})") from None
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise ConfigError(f"--out = {path}: the run directory is not writable")
+        self._lock()
+        try:
+            if mode == "new":
+                if holds_run(path):
+                    raise ConfigError(
+                        f"--out = {path} already holds a run{_status_note(path)}: continue it "
+                        "with --resume, or replace it with --overwrite")
+            elif mode == "overwrite":
+                self._remove_run()
+            elif mode == "resume":
+                self._check_resume(config)
+            else:
+                raise ValueError(f"unknown mode {mode!r}")
+        except BaseException:
+            self.release()
+            raise
+
+    def _lock(self) -> None:
+        lock_path = self.path / LOCK_NAME
+        try:
+            fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise ConfigError(f"--out = {self.path}: cannot create {LOCK_NAME} "
+                              f"({exc.strerror})") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            holder = _read_holder(fd)
+            os.close(fd)
+            if exc.errno in (errno.EWOULDBLOCK, errno.EACCES, errno.EAGAIN):
+                raise ConfigError(f"--out = {self.path} is in use by another run ({holder}): "
+                                  "wait for it to end, or choose another --out") from None
+            raise
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{platform.node()} pid {os.getpid()}\n".encode())
+        self._lock_fd = fd
+
+    def _remove_run(self) -> None:
+        for name in RUN_FILES:
+            (self.path / name).unlink(missing_ok=True)
+        for name in RUN_DIRS:
+            shutil.rmtree(self.path / name, ignore_errors=True)
+        for tmp in self.path.glob("*.tmp"):
+            tmp.unlink(missing_ok=True)
+
+    def _check_resume(self, config: dict[str, Any]) -> None:
+        has_checkpoint = any((self.path / n).exists()
+                             for n in ("checkpoint.npz", "checkpoint.prev.npz"))
+        if not has_checkpoint:
+            raise ConfigError(f"--resume: {self.path} has no checkpoint to resume from; "
+                              "start the run without --resume")
+        saved_path = self.path / "config.yaml"
+        try:
+            # through the schema, so that keys added since the run was made take their defaults
+            saved = config_to_dict(validate_config(yaml.safe_load(saved_path.read_text())))
+        except (OSError, yaml.YAMLError, ConfigError):
+            raise ConfigError(f"--resume: {saved_path} is missing or unreadable; the run cannot "
+                              "be checked against its config (start it again with --overwrite)"
+                              ) from None
+        differ = changed_keys(saved, config)
+        blocked = [k for k in differ if k not in RESUMABLE_KEYS]
+        if blocked:
+            raise ConfigError(
+                f"--resume: the config differs from the run's in {', '.join(blocked)}; only "
+                f"{', '.join(RESUMABLE_KEYS)} may change on resume (use --overwrite to start over)")
+
+    def release(self) -> None:
+        if self._lock_fd is not None:
+            try:
+                fcntl.flock(self._lock_fd, fcntl.LOCK_UN)
+            finally:
+                os.close(self._lock_fd)
+                self._lock_fd = None
+
+    def __enter__(self) -> "RunDirectory":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+def claim_on_root(comm, run_dir, config: dict[str, Any], mode: str) -> RunDirectory:
+    """Claim ``run_dir`` on rank 0 of ``comm`` (collective); every rank raises the same
+    ConfigError when the claim is refused. Use the result as a context manager."""
+    claim = RunDirectory(Path(str(run_dir)))
+    error = None
+    if comm.rank == 0:
+        try:
+            check_location(str(run_dir))   # before Path(""), which means "."
+            claim.claim(config, mode)
+        except ConfigError as exc:
+            error = str(exc)
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise ConfigError(error)
+    return claim
+
+
+def changed_keys(old: dict, new: dict, prefix: str = "") -> list[str]:
+    """Dotted keys whose values differ between two nested config dicts."""
+    keys = []
+    for k in sorted(set(old) | set(new)):
+        a, b = old.get(k), new.get(k)
+        name = f"{prefix}{k}"
+        if isinstance(a, dict) and isinstance(b, dict):
+            keys += changed_keys(a, b, name + ".")
+        elif a != b:
+            keys.append(name)
+    return keys
+
+
+def _read_holder(fd: int) -> str:
+    try:
+        os.lseek(fd, 0, os.SEEK_SET)
+        text = os.read(fd, 200).decode(errors="replace").strip()
+        return text or "unknown process"
+    except OSError:
+        return "unknown process"
+
+
+def _status_note(path: Path) -> str:
+    import json
+
+    try:
+        info = json.loads((path / "run.json").read_text())
+        t = info.get("summary", {}).get("t")
+        return f" (status {info.get('status')}" + (f", t = {t:.4g} s)" if t is not None else ")")
+    except (OSError, ValueError, AttributeError):
+        return ""

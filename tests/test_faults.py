@@ -1,0 +1,155 @@
+"""Fault injection (issue 13): each class of bad input or damaged run directory ends in one
+line and the exit status a batch script can branch on, never a traceback, and leaves a run
+directory whose files are whole (the XDMF parses, every step it references exists, the CSV
+has only complete rows, the checkpoint loads)."""
+
+from __future__ import annotations
+
+import csv
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+from dpcollapse.cli import main
+from dpcollapse.io.checkpoint import choose_checkpoint, previous_path
+from dpcollapse.io.diagnostics import read_diagnostics
+from tests.helpers import ROOT
+
+RIGID = str(ROOT / "configs" / "rigid.yaml")
+TINY = ["--set", "geometry.mesh_size=0.04", "--set", "time.output_every=1",
+        "--set", "time.checkpoint_every=2"]
+
+
+def _one_error_line(err: str) -> str:
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err and lines[0].startswith("dpcollapse: error: ")
+    return lines[0]
+
+
+def _run(out, *extra, end):
+    return main(["run", RIGID, *TINY, "--set", f"time.end_time={end}", "--out", str(out),
+                 "--quiet", *extra])
+
+
+def assert_whole(run_dir):
+    """The run directory's files are complete and agree with each other."""
+    root = ET.parse(run_dir / "solution.xdmf").getroot()          # parses
+    times = [float(t.get("Value")) for t in root.iter("Time")]
+    assert times == sorted(times) and len(set(times)) == len(times)
+    for item in root.iter("DataItem"):
+        h5 = (item.text or "").strip().split(":")[0]
+        if h5:
+            assert (run_dir / h5).exists(), h5
+    with (run_dir / "diagnostics.csv").open() as f:
+        rows = list(csv.reader(f))
+    assert all(len(r) == len(rows[0]) for r in rows[1:])
+    t = [float(r[rows[0].index("t")]) for r in rows[1:]]
+    assert np.all(np.diff(t) > 0)
+    from mpi4py import MPI
+
+    choose_checkpoint(run_dir / "checkpoint.npz", MPI.COMM_SELF)   # loads
+
+
+def test_resume_repairs_a_cut_csv_row_and_falls_back_from_a_corrupt_checkpoint(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert _run(out, end=0.008) == 0
+    assert previous_path(out / "checkpoint.npz").exists()       # the one before is kept
+    text = (out / "diagnostics.csv").read_text()
+    (out / "diagnostics.csv").write_text(text[:-25])             # last row cut mid-number
+    (out / "checkpoint.npz").write_bytes(b"PK\x03\x04 not a zip any more")
+    assert _run(out, "--resume", end=0.010) == 0
+    assert "resuming from checkpoint.prev.npz" in capsys.readouterr().err
+    d = read_diagnostics(out / "diagnostics.csv")
+    assert d["t"][-1] == pytest.approx(0.010)
+    assert d["step"] == list(range(1, len(d["step"]) + 1))        # no gap, no duplicate
+    assert_whole(out)
+
+
+def test_resume_with_no_usable_checkpoint_is_one_line(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert _run(out, end=0.004) == 0
+    for path in (out / "checkpoint.npz", previous_path(out / "checkpoint.npz")):
+        path.write_bytes(b"garbage")
+    capsys.readouterr()
+    assert _run(out, "--resume", end=0.006) == 2
+    line = _one_error_line(capsys.readouterr().err)
+    assert "no usable checkpoint" in line and "--overwrite" in line
+
+
+def test_duplicate_yaml_key_is_refused(tmp_path, capsys):
+    bad = tmp_path / "dup.yaml"
+    bad.write_text("geometry:\n  height: 0.2\n  height: 0.3\n")
+    assert main(["check", str(bad)]) == 2
+    line = _one_error_line(capsys.readouterr().err)
+    assert "'height' appears twice" in line and "line 3" in line
+
+
+def test_config_nested_thousands_of_levels_deep_is_one_line(tmp_path, capsys):
+    bad = tmp_path / "deep.yaml"
+    bad.write_text("geometry: " + "[" * 5000 + "]" * 5000 + "\n")
+    assert main(["check", str(bad)]) == 2
+    assert "nested too deeply" in _one_error_line(capsys.readouterr().err)
+
+
+def test_plot_times_outside_the_run_are_refused(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert _run(out, end=0.004) == 0
+    capsys.readouterr()
+    assert main(["plot", str(out), "--times", "0.002,5"]) == 2
+    line = _one_error_line(capsys.readouterr().err)
+    assert "--times = 5" in line and "outside" in line
+    assert not (out / "collapse.png").exists()
+    assert main(["plot", str(out), "--times", "0.002"]) == 0
+
+
+def test_resume_drops_a_step_whose_file_was_deleted(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert _run(out, end=0.006) == 0
+    steps = sorted((out / "fields").glob("step_*.h5"))
+    steps[1].unlink()                                    # a step before the checkpoint
+    capsys.readouterr()
+    assert _run(out, "--resume", end=0.008) == 0
+    assert "refers to a missing file: dropped" in capsys.readouterr().err
+    assert_whole(out)
+
+
+def test_damaged_xdmf_master_at_resume_names_the_file(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert _run(out, end=0.004) == 0
+    text = (out / "solution.xdmf").read_text()
+    (out / "solution.xdmf").write_text(text[: len(text) // 2])
+    capsys.readouterr()
+    assert _run(out, "--resume", end=0.006) == 2
+    line = _one_error_line(capsys.readouterr().err)
+    assert "solution.xdmf is damaged" in line and "--overwrite" in line
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 100 kB tmpfs: the run fills it within a few output steps."""
+    import subprocess
+
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    proc = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=100k", "tmpfs", str(mount)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here (needs root): {proc.stderr.strip()}")
+    yield mount
+    subprocess.run(["umount", "-l", str(mount)], check=False)
+
+
+def test_full_disk_is_an_io_failure_with_whole_files(small_disk, capsys):
+    out = small_disk / "run"
+    assert _run(out, "--set", "time.checkpoint_every=1000", end=0.05) == 5
+    line = _one_error_line(capsys.readouterr().err)
+    assert "I/O failure" in line and "No space left on device" in line
+    assert not list(out.rglob("*.tmp")) and not (out / "error.log").exists()
+    root = ET.parse(out / "solution.xdmf").getroot()        # the published master is whole
+    for item in root.iter("DataItem"):
+        h5 = (item.text or "").strip().split(":")[0]
+        if h5:
+            assert (out / h5).exists(), h5
+    assert len(list((out / "fields").glob("step_*.h5"))) == len(list(root.iter("Time")))
