@@ -377,3 +377,22 @@ def test_case_that_cannot_start_is_recorded(tmp_path, capsys):
     record = json.loads((out / "records" / "friction_angle=30.json").read_text())
     assert [a["exit_code"] for a in record["attempts"]] == [127]
     assert "2 cases: 0 done, 2 failed" in capsys.readouterr().out
+
+
+def test_longer_end_time_continues_the_finished_cases(local_sweep, tmp_path):
+    _, out, _ = local_sweep
+    copy = tmp_path / "out"
+    shutil.copytree(out, copy)
+    path = _write(tmp_path, TINY.replace("time.end_time: 0.02", "time.end_time: 0.03"))
+    proc = _run(PY + ["sweep", path, "--out", copy, "--dry-run"])
+    assert "   0 friction_angle=25.5: stale (end_time) -> resume" in proc.stdout, proc.stdout
+    assert "   2 fails: stale (failed) -> fresh" in proc.stdout, proc.stdout
+    proc = _run(PY + ["sweep", path, "--out", copy, "--jobs", "2"])
+    assert proc.returncode == 0, proc.stderr
+    rows = _rows(copy)
+    assert [rows[n]["status"] for n in NAMES] == ["end_time", "end_time", "failed"]
+    assert float(rows["friction_angle=30"]["t_end"]) == pytest.approx(0.03)
+    record = json.loads((copy / "records" / "friction_angle=30.json").read_text())
+    assert [a["action"] for a in record["attempts"]] == ["fresh", "resume"]
+    diag = (copy / "runs" / "friction_angle=30" / "diagnostics.csv").read_text().splitlines()
+    assert len(diag) == 1 + 30   # 20 steps of the first run, 10 of the resumed one

@@ -84,6 +84,7 @@ class CaseState:
     run: dict | None     #: run.json
     record: dict | None  #: records/<case>.json
     resumable: bool      #: a checkpoint exists
+    extendable: bool = False   #: stale only in what may change on resume (e.g. end time)
 
 
 def case_state(out: Path, case: Case) -> CaseState:
@@ -92,7 +93,7 @@ def case_state(out: Path, case: Case) -> CaseState:
     record = read_json(record_path(out, case))
     code = record.get("exit_code") if record else None
     running = bool(record and record.get("running"))
-    resumable = (d / "checkpoint.npz").is_file()
+    resumable = any((d / n).is_file() for n in ("checkpoint.npz", "checkpoint.prev.npz"))
     if run is None:
         if running:
             return CaseState("running", "", None, None, record, resumable)
@@ -100,7 +101,8 @@ def case_state(out: Path, case: Case) -> CaseState:
         return CaseState(state, "", code, None, record, resumable)
     status = str(run.get("status", ""))
     if run.get("config") != case.config:
-        return CaseState("stale", status, code, run, record, resumable)
+        return CaseState("stale", status, code, run, record, resumable,
+                         resumable and status != "failed" and _extendable(run, case.config))
     if running:
         return CaseState("running", status, code, run, record, resumable)
     if status in DONE:
@@ -110,6 +112,20 @@ def case_state(out: Path, case: Case) -> CaseState:
     else:  # interrupted, or running with no process: killed
         state = "interrupted"
     return CaseState(state, status, code, run, record, resumable)
+
+
+def _extendable(run: dict, config: dict) -> bool:
+    """True when the run's config differs from ``config`` only in keys that ``dpcollapse run
+    --resume`` accepts changed, and the run has not gone past the new end time."""
+    from dpcollapse.io.rundir import RESUMABLE_KEYS, changed_keys
+
+    old = run.get("config")
+    if not isinstance(old, dict):
+        return False
+    t = (run.get("summary") or {}).get("t", 0.0)
+    end = (config.get("time") or {}).get("end_time", 0.0)
+    return (all(k in RESUMABLE_KEYS for k in changed_keys(old, config))
+            and isinstance(t, (int, float)) and t <= end + 1e-12)
 
 
 def _last_line(path: Path) -> str:

@@ -85,7 +85,8 @@ def _sweep(sweep_file, executor, jobs, out, overrides, collect, dry_run, retry_f
         for case in sw.cases:
             state = coll.case_state(out, case)
             click.echo(f"{case.index:4d} {case.name}: {state.state}"
-                       + (f" ({state.status})" if state.status else ""))
+                       + (f" ({state.status})" if state.status else "")
+                       + f" -> {ex.decide(out, case, retry_failed)}")
         click.echo(f"{len(sw.cases)} cases, all valid; sweep directory {out}")
         return 0
     if task is not None:

@@ -44,7 +44,7 @@ from dpcollapse.sweep.collect import (
 )
 from dpcollapse.sweep.spec import Case, Sweep
 
-__all__ = ["child_env", "plan", "run_case", "run_one", "run_sweep", "write_slurm"]
+__all__ = ["child_env", "decide", "plan", "run_case", "run_one", "run_sweep", "write_slurm"]
 
 log = logging.getLogger("dpcollapse.sweep")
 
@@ -102,20 +102,50 @@ def case_command(sweep: Sweep, case: Case, out: Path, resume: bool, python: str 
     return cmd
 
 
-def plan(sweep: Sweep, out: Path, case: Case, retry_failed: bool = False) -> str:
-    """What to do with a case: ``skip``, ``resume`` or ``fresh``. A fresh start empties
-    the case's run directory first (a run directory holds exactly one run)."""
+def decide(out: Path, case: Case, retry_failed: bool = False) -> str:
+    """What to do with a case: ``skip``, ``resume`` or ``fresh`` (nothing is changed)."""
     cs = case_state(out, case)
     if cs.state == "done" or (cs.state == "failed" and not retry_failed):
         return "skip"
-    if cs.state in ("interrupted", "running") and cs.resumable:
+    if (cs.state in ("interrupted", "running") and cs.resumable) or cs.extendable:
         return "resume"
-    d = run_dir(out, case)
-    if d.exists():
-        if cs.state == "stale":
-            log.warning("%s: run directory holds a run of another config: starting again", case.name)
-        shutil.rmtree(d)
     return "fresh"
+
+
+def _in_use(d: Path) -> bool:
+    """Whether a live ``dpcollapse run`` holds the run directory's lock."""
+    import fcntl
+
+    try:
+        fd = os.open(d / ".lock", os.O_RDWR)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return False
+    except OSError:
+        return True
+    finally:
+        os.close(fd)
+
+
+def plan(sweep: Sweep, out: Path, case: Case, retry_failed: bool = False) -> str:
+    """:func:`decide`, and for a fresh start empty the case's run directory first (a run
+    directory holds exactly one run); ``skip`` for a directory another run is using."""
+    action = decide(out, case, retry_failed)
+    d = run_dir(out, case)
+    if d.exists() and _in_use(d):
+        log.warning("%s: %s is in use by another run: skipped", case.name, d)
+        return "skip"
+    if action == "fresh" and d.exists():
+        if case_state(out, case).state == "stale":
+            log.warning("%s: run directory holds a run of another config: starting again",
+                        case.name)
+        shutil.rmtree(d)
+    elif action == "resume" and case_state(out, case).state == "stale":
+        log.info("%s: config changed only in what a resume may change: resuming", case.name)
+    return action
 
 
 def _record_start(task: dict) -> dict:
