@@ -396,3 +396,16 @@ def test_longer_end_time_continues_the_finished_cases(local_sweep, tmp_path):
     assert [a["action"] for a in record["attempts"]] == ["fresh", "resume"]
     diag = (copy / "runs" / "friction_angle=30" / "diagnostics.csv").read_text().splitlines()
     assert len(diag) == 1 + 30   # 20 steps of the first run, 10 of the resumed one
+
+
+def test_the_documented_sweep_file_is_valid(tmp_path):
+    import re
+
+    doc = (ROOT / "docs" / "sweeps.md").read_text()
+    text = re.search(r"## The sweep file.*?```yaml\n(.*?)```", doc, re.S).group(1)
+    text = text.replace("../slope19_mui.yaml", str(ROOT / "configs" / "slope19_mui.yaml"))
+    sw = load_sweep(_write(tmp_path, text, "doc.yaml"))
+    assert len(sw.cases) == 3 * 2 * 2 * 2
+    assert sw.cases[1].name == ("bed_angle=10__rheology=mu_i__dt=0.001__dt_min=1.0e-06"
+                                "__no_walls")
+    assert sw.spec.slurm.time == "01:00:00" and sw.spec.collect == ["area_drift", "remeshes"]
