@@ -56,6 +56,9 @@ __all__ = ["XDMFTimeSeries", "check_output_function"]
 
 _XDMF_HEADER = '<?xml version="1.0"?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n'
 log = logging.getLogger(__name__)
+#: Set when an HDF5 write failed in this process: HDF5 1.14 (Debian sid) then asserts in its
+#: library terminator at exit, so the command line leaves without running the terminators.
+hdf5_write_failed = False
 _STEP_RE = re.compile(r"^step_(\d{6,})$")
 _XI_NS = "http://www.w3.org/2001/XInclude"
 _NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
@@ -224,6 +227,8 @@ class XDMFTimeSeries:
             with c_stderr_captured() as captured:   # HDF5 prints its error stack there
                 compat.write_xdmf_step(self.comm, str(step_xdmf), mesh, functions, t)
         except RuntimeError as exc:  # HDF5 reports a full disk or a lost file this way
+            global hdf5_write_failed
+            hdf5_write_failed = True
             if self.comm.rank == 0:
                 for path in (step_xdmf, step_xdmf.with_suffix(".h5")):
                     path.unlink(missing_ok=True)
