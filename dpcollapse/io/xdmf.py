@@ -51,6 +51,7 @@ import h5py
 from mpi4py import MPI
 
 from dpcollapse import compat
+from dpcollapse.io.durable import fsync_path
 
 __all__ = ["XDMFTimeSeries", "check_output_function"]
 
@@ -119,14 +120,6 @@ def c_stderr_captured():
             captured.text = sink.read().decode(errors="replace")
             if captured.text and not failed:
                 os.write(2, captured.text.encode())
-
-
-def _fsync_path(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 class XDMFTimeSeries:
@@ -241,8 +234,8 @@ class XDMFTimeSeries:
         def publish():
             step_h5 = step_xdmf.with_suffix(".h5")
             if self.durable:
-                _fsync_path(step_h5)
-                _fsync_path(step_xdmf)
+                fsync_path(step_h5)
+                fsync_path(step_xdmf)
             self._grids.append(self._flatten_step(step_xdmf, index, t))
             self._write_master()
             return None
@@ -404,11 +397,7 @@ class XDMFTimeSeries:
             tmp.unlink(missing_ok=True)   # the published master stays as it was
             raise
         if self.durable:
-            fd = os.open(self.master.parent, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
+            fsync_path(self.master.parent)
 
     def _remove_orphans(self, first_unused: int) -> None:
         """Delete step files numbered >= first_unused (not referenced by the master)."""
