@@ -157,3 +157,24 @@ def test_full_disk_is_an_io_failure_with_whole_files(small_disk):
         if h5:
             assert (out / h5).exists(), h5
     assert len(list((out / "fields").glob("step_*.h5"))) == len(list(root.iter("Time")))
+
+
+def test_sigterm_during_start_up_is_an_interrupt(tmp_path):
+    """SIGTERM while the run is being set up (mesh, forms, JIT): exit 130, one line."""
+    import signal
+    import subprocess
+    import time
+
+    from tests.helpers import clean_env, dpcollapse_cmd
+
+    out = tmp_path / "run"
+    proc = subprocess.Popen(dpcollapse_cmd() + ["run", RIGID, "--out", str(out), "--quiet"],
+                            env=clean_env(), cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while time.time() < deadline and not (out / ".lock").exists():
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "interrupted" in _one_error_line(err)
