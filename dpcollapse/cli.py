@@ -407,7 +407,24 @@ def entry() -> None:
 
     signal.signal(signal.SIGTERM, _interrupt)
     install_excepthook()
-    sys.exit(main())
+    code = main()
+    xdmf = sys.modules.get("dpcollapse.io.xdmf")
+    if xdmf is not None and xdmf.hdf5_write_failed:
+        _exit_without_finalizers(code)
+    sys.exit(code)
+
+
+def _exit_without_finalizers(code: int) -> None:
+    """Leave now, without the HDF5 and MPI terminators: after a failed HDF5 write, HDF5
+    1.14 asserts in them (exit 134 instead of the error's own status). Under mpirun the job
+    is aborted with the status, which mpirun passes on."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    world = sys.modules.get("mpi4py.MPI")
+    if world is not None and world.Is_initialized() and not world.Is_finalized() \
+            and world.COMM_WORLD.size > 1:
+        world.COMM_WORLD.Abort(code)
+    os._exit(code)
 
 
 __all__ = ["cli", "entry", "main", "summary"]

@@ -14,7 +14,7 @@ import pytest
 from dpcollapse.cli import main
 from dpcollapse.io.checkpoint import choose_checkpoint, previous_path
 from dpcollapse.io.diagnostics import read_diagnostics
-from tests.helpers import ROOT
+from tests.helpers import ROOT, run_cli
 
 RIGID = str(ROOT / "configs" / "rigid.yaml")
 TINY = ["--set", "geometry.mesh_size=0.04", "--set", "time.output_every=1",
@@ -141,10 +141,14 @@ def small_disk(tmp_path):
     subprocess.run(["umount", "-l", str(mount)], check=False)
 
 
-def test_full_disk_is_an_io_failure_with_whole_files(small_disk, capsys):
+def test_full_disk_is_an_io_failure_with_whole_files(small_disk):
+    """Through the console script (a separate process): after a failed HDF5 write, HDF5 1.14
+    asserts in its terminator at exit unless the command leaves without it (exit 134)."""
     out = small_disk / "run"
-    assert _run(out, "--set", "time.checkpoint_every=1000", end=0.05) == 5
-    line = _one_error_line(capsys.readouterr().err)
+    proc = run_cli("run", RIGID, *TINY, "--set", "time.checkpoint_every=1000", "--set",
+                   "time.end_time=0.05", "--out", out, "--quiet")
+    assert proc.returncode == 5, proc.stderr[-2000:]
+    line = _one_error_line(proc.stderr)
     assert "I/O failure" in line and "No space left on device" in line
     assert not list(out.rglob("*.tmp")) and not (out / "error.log").exists()
     root = ET.parse(out / "solution.xdmf").getroot()        # the published master is whole
@@ -153,3 +157,24 @@ def test_full_disk_is_an_io_failure_with_whole_files(small_disk, capsys):
         if h5:
             assert (out / h5).exists(), h5
     assert len(list((out / "fields").glob("step_*.h5"))) == len(list(root.iter("Time")))
+
+
+def test_sigterm_during_start_up_is_an_interrupt(tmp_path):
+    """SIGTERM while the run is being set up (mesh, forms, JIT): exit 130, one line."""
+    import signal
+    import subprocess
+    import time
+
+    from tests.helpers import clean_env, dpcollapse_cmd
+
+    out = tmp_path / "run"
+    proc = subprocess.Popen(dpcollapse_cmd() + ["run", RIGID, "--out", str(out), "--quiet"],
+                            env=clean_env(), cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 60
+    while time.time() < deadline and not (out / ".lock").exists():
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert "interrupted" in _one_error_line(err)

@@ -17,6 +17,7 @@ import numpy as np
 
 from dpcollapse import compat
 from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.io.durable import fsync_path
 from dpcollapse.transfer import CellwiseField
 
 
@@ -61,7 +62,7 @@ def save_checkpoint(path: Path, tagged: TaggedMesh, u: CellwiseField, p: Cellwis
     tmp = path.with_name(path.stem + ".tmp.npz")
     try:
         np.savez(tmp, **arrays)
-        _fsync(tmp)
+        fsync_path(tmp)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
@@ -80,14 +81,6 @@ def previous_path(path: Path) -> Path:
     """checkpoint.npz -> checkpoint.prev.npz"""
     path = Path(path)
     return path.with_name(path.stem + ".prev" + path.suffix)
-
-
-def _fsync(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 _REQUIRED = ("mesh_x", "mesh_cells", "mesh_edges", "mesh_edge_tags", "state")

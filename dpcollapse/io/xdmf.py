@@ -51,11 +51,15 @@ import h5py
 from mpi4py import MPI
 
 from dpcollapse import compat
+from dpcollapse.io.durable import fsync_path
 
 __all__ = ["XDMFTimeSeries", "check_output_function"]
 
 _XDMF_HEADER = '<?xml version="1.0"?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n'
 log = logging.getLogger(__name__)
+#: Set when an HDF5 write failed in this process: HDF5 1.14 (Debian sid) then asserts in its
+#: library terminator at exit, so the command line leaves without running the terminators.
+hdf5_write_failed = False
 _STEP_RE = re.compile(r"^step_(\d{6,})$")
 _XI_NS = "http://www.w3.org/2001/XInclude"
 _NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
@@ -116,14 +120,6 @@ def c_stderr_captured():
             captured.text = sink.read().decode(errors="replace")
             if captured.text and not failed:
                 os.write(2, captured.text.encode())
-
-
-def _fsync_path(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
 
 
 class XDMFTimeSeries:
@@ -224,6 +220,8 @@ class XDMFTimeSeries:
             with c_stderr_captured() as captured:   # HDF5 prints its error stack there
                 compat.write_xdmf_step(self.comm, str(step_xdmf), mesh, functions, t)
         except RuntimeError as exc:  # HDF5 reports a full disk or a lost file this way
+            global hdf5_write_failed
+            hdf5_write_failed = True
             if self.comm.rank == 0:
                 for path in (step_xdmf, step_xdmf.with_suffix(".h5")):
                     path.unlink(missing_ok=True)
@@ -236,8 +234,8 @@ class XDMFTimeSeries:
         def publish():
             step_h5 = step_xdmf.with_suffix(".h5")
             if self.durable:
-                _fsync_path(step_h5)
-                _fsync_path(step_xdmf)
+                fsync_path(step_h5)
+                fsync_path(step_xdmf)
             self._grids.append(self._flatten_step(step_xdmf, index, t))
             self._write_master()
             return None
@@ -399,11 +397,7 @@ class XDMFTimeSeries:
             tmp.unlink(missing_ok=True)   # the published master stays as it was
             raise
         if self.durable:
-            fd = os.open(self.master.parent, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
+            fsync_path(self.master.parent)
 
     def _remove_orphans(self, first_unused: int) -> None:
         """Delete step files numbered >= first_unused (not referenced by the master)."""
