@@ -180,10 +180,9 @@ def eval_expression(expr: fem.Expression, mesh, cells: np.ndarray) -> np.ndarray
 def collapse(sub):
     """(collapsed space, dofs of the parent space for each collapsed dof as an array)."""
     space, dofs = sub.collapse()
-    if isinstance(dofs, (list, tuple)):
-        dofs = np.concatenate([np.atleast_1d(np.asarray(d, dtype=np.int32)) for d in dofs]) \
-            if len(dofs) else np.zeros(0, dtype=np.int32)
-    return space, np.asarray(dofs, dtype=np.int32)
+    if isinstance(dofs, (list, tuple)) and len(dofs) and np.ndim(dofs[0]) > 0:
+        dofs = np.concatenate([np.asarray(d, dtype=np.int32).ravel() for d in dofs])
+    return space, np.asarray(dofs, dtype=np.int32).ravel()   # 0.5: a list of ints
 
 
 # --------------------------------------------------------------------------- PETSc
