@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dpcollapse import compat
 from dpcollapse.bench import (
     _csv_value,
     _fmt,
@@ -153,8 +154,8 @@ def developed_rows(cfg, run_dir: Path, comm, epsilons: Sequence[float]) -> list[
     sim.run()
     flow, rows = sim.disc.flow, []
     flow.dt.value = cfg.time.dt
-    start = flow.solution.vector.copy()
-    x = flow.solution.vector.duplicate()
+    start = compat.petsc_vec(flow.solution).copy()
+    x = compat.petsc_vec(flow.solution).duplicate()
     n = cfg.numerics
     try:
         for eps in epsilons:

@@ -21,6 +21,7 @@ import click  # noqa: E402
 
 from dpcollapse.config import Config, load_config  # noqa: E402
 from dpcollapse.errors import ConfigError, DpcollapseError, Interrupted  # noqa: E402
+from dpcollapse.parallel import end_together, install_excepthook  # noqa: E402
 
 try:  # an editable install made before dpcollapse/__init__.py existed sees a namespace package
     from dpcollapse import __version__
@@ -308,29 +309,34 @@ def _error(message: str) -> None:
         click.echo("dpcollapse: error: " + " ".join(str(message).split()), err=True)
 
 
+def _fail(message: str, exit_code: int) -> int:
+    """Report an error and return its exit status. Under MPI every rank must be failing
+    too; a rank that fails alone aborts the whole job instead (:mod:`dpcollapse.parallel`)."""
+    end_together(exit_code, " ".join(str(message).split()))
+    _error(message)
+    return exit_code
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line on ``argv`` (default: sys.argv[1:]) and return the exit status."""
     _setup_logging()
     try:
         rv = cli.main(args=argv, prog_name="dpcollapse", standalone_mode=False)
     except DpcollapseError as exc:
-        _error(str(exc) or exc.__class__.__name__)
-        return exc.exit_code
+        return _fail(str(exc) or exc.__class__.__name__, exc.exit_code)
     except click.UsageError as exc:
         hint = f" (see '{exc.ctx.command_path} --help')" if exc.ctx else ""
-        _error(exc.format_message() + hint)
-        return exc.exit_code
+        return _fail(exc.format_message() + hint, exc.exit_code)
     except click.ClickException as exc:
-        _error(exc.format_message())
-        return exc.exit_code
+        return _fail(exc.format_message(), exc.exit_code)
     except (click.Abort, KeyboardInterrupt):
-        _error("interrupted")
-        return Interrupted.exit_code
+        return _fail("interrupted", Interrupted.exit_code)
     return rv if isinstance(rv, int) else 0
 
 
 def entry() -> None:
     """Console script ``dpcollapse``."""
+    install_excepthook()
     sys.exit(main())
 
 

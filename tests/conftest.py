@@ -2,6 +2,7 @@
 
 import gc
 import logging
+import os
 from pathlib import Path
 
 import pytest
@@ -9,16 +10,26 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 
 
+#: Seconds a rank waits after a test for the other ranks to finish it too; past that the
+#: other rank is stuck (typically in a collective call after an error on this rank) and the
+#: whole MPI job is aborted, so that CI fails fast instead of hanging to its time limit.
+MPI_TEST_GRACE = float(os.environ.get("DPCOLLAPSE_TEST_MPI_GRACE", "300"))
+
+
 @pytest.fixture(autouse=True)
-def _collect_and_barrier():
+def _collect_and_barrier(request):
     yield
     gc.collect()
     try:
         from mpi4py import MPI
-
-        MPI.COMM_WORLD.barrier()
     except ImportError:
-        pass
+        return
+    from dpcollapse.parallel import abort_job, all_arrive
+
+    comm = MPI.COMM_WORLD
+    if not all_arrive(comm, MPI_TEST_GRACE):
+        abort_job(comm, 1, f"{request.node.nodeid}: the other ranks did not finish this test "
+                           f"within {MPI_TEST_GRACE:g} s (an error on one rank?)")
 
 
 @pytest.fixture

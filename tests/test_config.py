@@ -238,25 +238,3 @@ def test_with_overrides():
     assert new.time.dt == 2e-3 and cfg.time.dt == 1e-3
     with pytest.raises(ConfigError, match="time.dt = 0: must be > 0"):
         with_overrides(cfg, ["time.dt=0"])
-
-
-def test_readme_table_lists_every_key_with_its_default():
-    """The configuration table in README.md has one row per model field, default as str()
-    (null for None), and the field's description (a key added without its row fails here)."""
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    section_text = text.split("## Configuration reference", 1)[1].split("\n## ", 1)[0]
-    rows = {}
-    for line in section_text.splitlines():
-        if line.startswith("| `") and "." in line.split("`")[1]:
-            cells = [c.strip() for c in line.strip("|").split(" | ")]
-            rows[cells[0].strip("`")] = cells
-    keys = set()
-    for section, sfield in Config.model_fields.items():
-        for name, field in sfield.annotation.model_fields.items():
-            key = f"{section}.{name}"
-            keys.add(key)
-            assert key in rows, f"README.md has no row for {key}"
-            default = "null" if field.default is None else str(field.default)
-            assert rows[key][1] == default, (key, rows[key][1], default)
-            assert rows[key][3].replace("\\|", "|") == field.description, key
-    assert set(rows) == keys, set(rows) - keys

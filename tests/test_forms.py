@@ -16,7 +16,7 @@ from dpcollapse.rheology.drucker_prager import DruckerPrager
 
 @pytest.fixture
 def square():
-    msh = dmesh.create_rectangle(MPI.COMM_SELF, [np.array([0.0, 0.0]), np.array([0.3, 0.2])], [3, 2])
+    msh = compat.create_rectangle(MPI.COMM_SELF, (0.0, 0.0), (0.3, 0.2), (3, 2))
     V = compat.vector_space(msh, 2)
     return msh, V
 

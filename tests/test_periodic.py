@@ -40,8 +40,7 @@ class Channel:
     """Mesh, facet tags, Taylor–Hood space and the (optionally transient) Stokes forms."""
 
     def __init__(self, comm, dt=None):
-        self.mesh = m = dmesh.create_rectangle(
-            comm, [np.array([0.0, 0.0]), np.array([LENGTH, HEIGHT])], [NX, NY])
+        self.mesh = m = compat.create_rectangle(comm, (0.0, 0.0), (LENGTH, HEIGHT), (NX, NY))
         sides = ((LEFT, lambda x: np.isclose(x[0], 0.0)),
                  (RIGHT, lambda x: np.isclose(x[0], LENGTH)),
                  (BOTTOM, lambda x: np.isclose(x[1], 0.0)),
@@ -54,8 +53,8 @@ class Channel:
         self.facet_tags = compat.meshtags(m, 1, np.concatenate(indices), np.concatenate(values))
 
         self.W = W = compat.taylor_hood_space(m)
-        self.V, vdofs = W.sub(0).collapse()
-        self.Q, pdofs = W.sub(1).collapse()
+        self.V, vdofs = compat.collapse(W.sub(0))
+        self.Q, pdofs = compat.collapse(W.sub(1))
         self.vdofs, self.pdofs = np.asarray(vdofs), np.asarray(pdofs)
         self.u_old = fem.Function(self.V)
         (u, p), (v, q) = ufl.TrialFunctions(W), ufl.TestFunctions(W)
@@ -74,7 +73,7 @@ class Channel:
         """u = 0 (or one component = 0) on the bed y = 0."""
         bed = self.facet_tags.indices[self.facet_tags.values == BOTTOM]
         sub = self.W.sub(0) if component is None else self.W.sub(0).sub(component)
-        Vs, _ = sub.collapse()
+        Vs, _ = compat.collapse(sub)
         dofs = fem.locate_dofs_topological((sub, Vs), 1, bed)
         return fem.dirichletbc(fem.Function(Vs), dofs, sub)
 
@@ -142,7 +141,7 @@ def test_periodic_stokes_channel_is_exact():
     solver = DirectSolver(MPI.COMM_SELF, "mumps", prefix="test_periodic_ctl_")
     free = fem.Function(ch.W)
     solver.set_operator(system.assemble_matrix())
-    solver.solve(system.assemble_vector(), free.vector)
+    solver.solve(system.assemble_vector(), compat.petsc_vec(free))
     assert np.max(np.abs(ch.split(free)[0] - ue)) > 1e-3 * np.max(np.abs(ue))
     system.destroy()
     solver.destroy()
@@ -219,7 +218,7 @@ def test_periodic_channel_in_parallel(comm):
     assert np.max(np.abs(u - ue), initial=0.0) <= 1e-10 * RHO * G * HEIGHT**2 / ETA
     assert np.max(np.abs(p - pe), initial=0.0) <= 1e-10 * RHO * G * HEIGHT
 
-    uh, ph = w.sub(0).collapse(), w.sub(1).collapse()
+    uh, ph = (w.sub(i).collapse() for i in (0, 1))   # Functions, not spaces
 
     def norm(form):
         return math.sqrt(comm.allreduce(fem.assemble_scalar(fem.form(form)), op=MPI.SUM))

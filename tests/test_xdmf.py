@@ -19,7 +19,6 @@ import h5py
 import numpy as np
 import pytest
 from dolfinx import fem
-from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
 from tests.helpers import paraview_summaries
@@ -35,9 +34,7 @@ N_REMESH = (6, 3)  # 36 triangles
 
 # ----------------------------------------------------------------------------- helpers
 def rectangle(comm, n):
-    return dmesh.create_rectangle(
-        comm, [np.array([0.0, 0.0]), np.array([2.0, 1.0])], list(n), dmesh.CellType.triangle
-    )
+    return compat.create_rectangle(comm, (0.0, 0.0), (2.0, 1.0), n)
 
 
 def output_functions(mesh, t):

@@ -90,7 +90,7 @@ def _evaluation_points(V) -> np.ndarray:
     """Where to evaluate a snapshot for V's dofs: the dof coordinates, pulled slightly into
     their cell for discontinuous spaces (every local dof belongs to one local cell)."""
     x = V.tabulate_dof_coordinates()[:, :2].copy()
-    if V.ufl_element().family() not in ("DG", "Discontinuous Lagrange"):
+    if compat.element_info(V).family != "DG":
         return x
     mesh = V.mesh
     cells = compat.cell_dofs(V)
@@ -107,7 +107,7 @@ def snapshot_multipliers(flow) -> dict[str, CellwiseField]:
     for name, func in flow.multiplier_functions().items():
         V = func.function_space
         bs = V.dofmap.index_map_bs
-        degree = V.ufl_element().degree()
+        degree = compat.element_info(V).degree
         fields[name] = concatenate(flow.comm.allgather(_cellwise(V, func.x.array, bs, degree)))
     return fields
 

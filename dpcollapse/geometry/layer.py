@@ -20,8 +20,7 @@ def layer_mesh(comm: MPI.Comm, length: float, thickness: float, mesh_size: float
     """Structured triangles of size ≈ mesh_size on [0, length] × [0, thickness]."""
     nx = max(1, round(length / mesh_size))
     ny = max(1, round(thickness / mesh_size))
-    mesh = dmesh.create_rectangle(comm, [np.array([0.0, 0.0]), np.array([length, thickness])],
-                                  [nx, ny], dmesh.CellType.triangle, dmesh.GhostMode.shared_facet)
+    mesh = compat.create_rectangle(comm, (0.0, 0.0), (length, thickness), (nx, ny))
     fdim = mesh.topology.dim - 1
     tol = 1e-12 * max(length, thickness)
     markers = ((BED, lambda x: np.abs(x[1]) < tol),

@@ -150,7 +150,7 @@ def write_polygon_msh(path, points: np.ndarray, edge_tags: np.ndarray, mesh_size
 def read_msh(comm: MPI.Comm, path) -> TaggedMesh:
     """Read a gmsh ``.msh`` with physical facet groups BED=1, WALL=2, SURFACE=3.
 
-    (DOLFINx 0.5.2's ``gmshio.read_from_msh`` is broken — it returns an undefined name —
+    (DOLFINx 0.5.2's ``read_from_msh`` is broken — it returns an undefined name —
     so the file is merged into our own gmsh session on rank 0.)
     """
     if comm.rank == 0:

@@ -44,7 +44,6 @@ from pathlib import Path
 from typing import Sequence
 
 import h5py
-import ufl
 from mpi4py import MPI
 
 from dpcollapse import compat
@@ -56,9 +55,6 @@ _STEP_RE = re.compile(r"^step_(\d{6,})$")
 _XI_NS = "http://www.w3.org/2001/XInclude"
 _NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
 
-# Element families DOLFINx 0.5 writes faithfully to XDMF (vertex values / cell values).
-_P1_FAMILIES = {"Lagrange", "P", "CG", "Q"}
-_DG0_FAMILIES = {"Discontinuous Lagrange", "DG", "DQ", "DP"}
 
 
 def check_output_function(fn) -> None:
@@ -67,16 +63,14 @@ def check_output_function(fn) -> None:
     Vector and tensor versions of those are accepted; mixed spaces, higher degrees and
     DG1+ are refused (DOLFINx 0.5 would silently sample them at vertices).
     """
-    element = fn.function_space.ufl_element()
-    if isinstance(element, ufl.MixedElement) and not isinstance(
-        element, (ufl.VectorElement, ufl.TensorElement)
-    ):
+    info = compat.element_info(fn.function_space)
+    if info.mixed:
         raise ValueError(
-            f"function {fn.name!r} lives on a mixed space ({element}); collapse it and "
+            f"function {fn.name!r} lives on a mixed space; collapse it and "
             "interpolate into a P1 or DG0 output space first"
         )
-    family, degree = element.family(), element.degree()
-    if (family in _P1_FAMILIES and degree == 1) or (family in _DG0_FAMILIES and degree == 0):
+    family, degree = info.family, info.degree
+    if (family == "P" and degree == 1) or (family == "DG" and degree == 0):
         return
     raise ValueError(
         f"function {fn.name!r} is on a {family} degree-{degree} space; XDMF output takes only "

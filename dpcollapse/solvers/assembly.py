@@ -6,12 +6,14 @@ from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
 
+from dpcollapse import compat
+
 
 def zero_dirichlet(sub: fem.FunctionSpace, facet_tags, tag: int):
     """The condition (sub-space component) = 0 on the facets tagged ``tag``."""
     mesh = sub.mesh
     facets = facet_tags.indices[facet_tags.values == tag]
-    collapsed, _ = sub.collapse()
+    collapsed, _ = compat.collapse(sub)
     dofs = fem.locate_dofs_topological((sub, collapsed), mesh.topology.dim - 1, facets)
     return fem.dirichletbc(fem.Function(collapsed), dofs, sub)
 
@@ -23,8 +25,8 @@ class LinearSystem:
         self.a = fem.form(a)
         self.L = fem.form(L)
         self.bcs = bcs
-        self.A = fem_petsc.create_matrix(self.a)
-        self.b = fem_petsc.create_vector(self.L)
+        self.A = compat.create_matrix(self.a)
+        self.b = compat.create_vector(self.L)
 
     def assemble_matrix(self) -> PETSc.Mat:
         self.A.zeroEntries()
@@ -44,7 +46,7 @@ class LinearSystem:
     def solve(self, solver, target, b: PETSc.Vec | None = None) -> None:
         """Solve A x = b with ``solver`` (its operator already set) into Function ``target``
         (b: the last assembled right-hand side by default)."""
-        solver.solve(self.b if b is None else b, target.vector)
+        solver.solve(self.b if b is None else b, compat.petsc_vec(target))
         target.x.scatter_forward()
 
     def destroy(self) -> None:

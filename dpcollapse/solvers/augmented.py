@@ -212,7 +212,7 @@ class AugmentedLagrangianFlow(RegularizedFlow):
 
     # ------------------------------------------------------------------ helpers
     def _assemble_nodal(self, form, target: fem.Function) -> None:
-        vec = target.vector
+        vec = compat.petsc_vec(target)
         with vec.localForm() as loc:
             loc.set(0.0)
         fem_petsc.assemble_vector(vec, form)

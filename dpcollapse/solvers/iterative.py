@@ -25,7 +25,7 @@ cell-local ρh²/Δt term) needed 193 (1 cm) and 317 (0.5 cm) iterations on the 
 of a collapse (p = 0, ν = 2η: the inertial limit), against 19 and 15 with L (lower
 factorization). M_ν and L are reassembled from their UFL forms at every ``set_operator``.
 
-Limit (measured, README "Iterative solver"): with an exact velocity solve the Schur
+Limit (measured, docs/benchmarks/2026-11-24-iterative-solver.md): with an exact velocity solve the Schur
 approximation takes 16 iterations whatever ε, but the AMG V-cycle on A degrades with the
 viscosity contrast of a developed flow (flowing ν ~ 10–100 Pa s next to rigid ν ~ κ/ε):
 at ε = 1e-6 FGMRES does not converge in 500 iterations there.
@@ -37,6 +37,8 @@ import numpy as np
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from petsc4py import PETSc
+
+from dpcollapse import compat
 
 #: Defaults of the outer Krylov solve: relative residual and iteration cap.
 RTOL = 1e-10
@@ -139,7 +141,7 @@ class _PressureBlock:
 
     def __init__(self, form, bcs, is_p: PETSc.IS):
         self.form, self.bcs, self.is_p = fem.form(form), bcs, is_p
-        self._full = fem_petsc.create_matrix(self.form)
+        self._full = compat.create_matrix(self.form)
         self.block = None
 
     def assemble(self) -> PETSc.Mat:

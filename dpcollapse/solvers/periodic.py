@@ -33,7 +33,6 @@ from typing import Sequence
 
 import dolfinx_mpc
 import numpy as np
-from dolfinx import cpp as _cpp
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
@@ -106,8 +105,8 @@ class PeriodicLinearSystem:
 
         Vm = mpc.function_space
         self.function_space = Vm
-        self.A = dolfinx_mpc.cpp.mpc.create_matrix(self.a, mpc._cpp_object)
-        self.b = _create_vector(Vm)
+        self.A = compat.mpc_create_matrix(self.a, mpc)
+        self.b = compat.mpc_create_vector(mpc)
         self.x = fem.Function(Vm)                   # reduced solution + back-substituted slaves
         self._owned = V.dofmap.index_map.size_local * V.dofmap.index_map_bs
         assert self._owned == Vm.dofmap.index_map.size_local * Vm.dofmap.index_map_bs
@@ -152,7 +151,7 @@ class PeriodicLinearSystem:
             if S is self.V:
                 dofs = fem.locate_dofs_topological(S, fdim, facets)
             else:
-                dofs = fem.locate_dofs_topological((S, S.collapse()[0]), fdim, facets)[0]
+                dofs = fem.locate_dofs_topological((S, compat.collapse(S)[0]), fdim, facets)[0]
             dofs = dofs[dofs < owned]
             expected += int(np.count_nonzero(~marked[dofs]))
         expected = self.comm.allreduce(expected, op=MPI.SUM)
@@ -194,8 +193,8 @@ class PeriodicLinearSystem:
         x = compat.petsc_vec(self.x)
         solver.solve(self.b if b is None else b, x)
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        self.mpc.homogenize(x)          # backsubstitution adds (+=) onto the slave entries
-        self.mpc.backsubstitution(x)    # slaves (owned and ghost) from masters, then scatter
+        compat.mpc_homogenize(self.mpc, self.x)        # backsubstitution adds (+=) onto slaves
+        compat.mpc_backsubstitution(self.mpc, self.x)  # slaves (owned and ghost) from masters
         n = self._owned
         target.x.array[:n] = self.x.x.array[:n]
         target.x.scatter_forward()
@@ -203,8 +202,3 @@ class PeriodicLinearSystem:
     def destroy(self) -> None:
         self.A.destroy()
         self.b.destroy()
-
-
-def _create_vector(Vm: fem.FunctionSpace) -> PETSc.Vec:
-    """A ghosted PETSc vector on the MPC space's (extended) index map."""
-    return _cpp.la.petsc.create_vector(Vm.dofmap.index_map, Vm.dofmap.index_map_bs)

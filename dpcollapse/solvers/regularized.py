@@ -97,8 +97,8 @@ class RegularizedFlow:
         self.comm = mesh.comm
 
         self.W = compat.taylor_hood_space(mesh)
-        self.V, vdofs = self.W.sub(0).collapse()
-        self.Q, pdofs = self.W.sub(1).collapse()
+        self.V, vdofs = compat.collapse(self.W.sub(0))
+        self.Q, pdofs = compat.collapse(self.W.sub(1))
         self.velocity_dofs = np.asarray(vdofs, dtype=np.int32)
         self.pressure_dofs = np.asarray(pdofs, dtype=np.int32)
         self.Vw = compat.vector_space(mesh, 1)

@@ -220,15 +220,17 @@ def _steady_measures(sim: Simulation, law: MuI, us: float):
                           np.column_stack([lam, (1 - lam) / 2]),              # → edge ξ = 0
                           np.column_stack([(1 - lam) / 2, lam])])             # → edge η = 0
     cells = np.arange(nc, dtype=np.int32)
-    I_pts = fem.Expression(I_expr, pts).eval(cells).ravel()
-    y_pts = fem.Expression(ufl.SpatialCoordinate(mesh)[1], pts).eval(cells).ravel()
+    I_pts = compat.eval_expression(fem.Expression(I_expr, pts), mesh, cells).ravel()
+    y_pts = compat.eval_expression(fem.Expression(ufl.SpatialCoordinate(mesh)[1], pts), mesh,
+                                   cells).ravel()
     ill = criterion(law, I_pts) >= 0
     h = cfg.geometry.height
     depth = comm.allreduce(float((h - y_pts[ill]).max()) if ill.any() else 0.0, op=MPI.MAX)
     # I on the free surface itself (the vertices and midpoints of the surface facets)
     edge = np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.0], [0.5, 0.5], [0.0, 0.5]])
-    I_e = fem.Expression(I_expr, edge).eval(cells).ravel()
-    y_e = fem.Expression(ufl.SpatialCoordinate(mesh)[1], edge).eval(cells).ravel()
+    I_e = compat.eval_expression(fem.Expression(I_expr, edge), mesh, cells).ravel()
+    y_e = compat.eval_expression(fem.Expression(ufl.SpatialCoordinate(mesh)[1], edge), mesh,
+                                 cells).ravel()
     on_top = np.abs(y_e - h) < 1e-9 * h
     I_surface = comm.allreduce(float(I_e[on_top].min()) if on_top.any() else math.inf, op=MPI.MIN)
     order = np.argsort(yc_all)
