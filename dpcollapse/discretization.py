@@ -18,9 +18,9 @@ from dpcollapse import compat
 from dpcollapse.ale.motion import MeshMotion, cell_orientation, quality
 from dpcollapse.config import Config
 from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.rheology.base import Rheology
 from dpcollapse.rheology.drucker_prager import DruckerPrager
 from dpcollapse.rheology.mu_i import MuI
-from dpcollapse.rheology.wellposedness import well_posed_window
 from dpcollapse.solvers.augmented import AugmentedLagrangianFlow, AugmentedSettings, default_augmentation
 from dpcollapse.solvers.regularized import FlowParameters, PicardSettings, RegularizedFlow
 
@@ -28,8 +28,9 @@ from dpcollapse.solvers.regularized import FlowParameters, PicardSettings, Regul
 FLOWING_SPEED = 1e-3
 
 
-def rheology(cfg: Config):
-    """The constitutive law of ``material``: DruckerPrager or MuI."""
+def rheology(cfg: Config) -> Rheology:
+    """The constitutive law of ``material`` (a :class:`~dpcollapse.rheology.base.Rheology`):
+    DruckerPrager or MuI."""
     m = cfg.material
     if m.rheology == "mu_i":
         return MuI(mu_s=m.mu_s, mu_2=m.mu_2, I0=m.inertial_number_I0, grain_diameter=m.grain_diameter,
@@ -116,14 +117,14 @@ class Discretization:
         D = ufl.sym(ufl.grad(u))
         self._strain_expr = compat.expression(ufl.sqrt(ufl.inner(D, D)), S0)
         self.law = law = self.flow.params.rheology
-        self.window = None
-        if isinstance(law, MuI):  # inertial number per cell, and the well-posed window
-            eps = cfg.numerics.epsilon
-            self.out_inertial = fem.Function(S0, name="inertial_number")
-            self._inertial_expr = compat.expression(law.inertial_number(u, p, eps), S0)
+        # fields only some laws have (μ(I): the inertial number), and the well-posed window
+        eps = cfg.numerics.epsilon
+        self.out_extra = {name: (fem.Function(S0, name=name), compat.expression(expr, S0))
+                          for name, expr in law.diagnostic_fields(u, p, eps).items()}
+        self.window = law.well_posed_window()
+        if self.window is not None:
             self._speed = fem.Function(S0)
             self._speed_expr = compat.expression(ufl.sqrt(ufl.inner(u, u)), S0)
-            self.window = well_posed_window(law)
 
     def area(self) -> float:
         return self.comm.allreduce(fem.assemble_scalar(self._area), op=MPI.SUM)
@@ -152,9 +153,10 @@ class Discretization:
         if self.window is None:
             return math.nan
         n = compat.num_owned_cells(self.mesh)
-        self.out_inertial.interpolate(self._inertial_expr)
+        inertial, expr = self.out_extra["inertial_number"]
+        inertial.interpolate(expr)
         self._speed.interpolate(self._speed_expr)
-        I = self.out_inertial.x.array[:n]
+        I = inertial.x.array[:n]
         flowing = self._speed.x.array[:n] > FLOWING_SPEED
         lo, hi = self.window
         bad = flowing & ((I < lo) | (I > hi)) if lo == lo else flowing
@@ -173,9 +175,9 @@ class Discretization:
             cells = compat.cell_dofs(self.out_rigid.function_space)[:, 0]
             self.out_rigid.x.array[cells] = self.flow.rigid_cells().astype(float)
             fields.append(self.out_rigid)
-        if self.window is not None:
-            self.out_inertial.interpolate(self._inertial_expr)
-            fields.append(self.out_inertial)
+        for function, expr in self.out_extra.values():
+            function.interpolate(expr)
+            fields.append(function)
         return fields
 
     def destroy(self) -> None:

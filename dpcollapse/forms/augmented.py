@@ -25,7 +25,7 @@ from __future__ import annotations
 import ufl
 
 from dpcollapse.forms.friction import tangential
-from dpcollapse.rheology.drucker_prager import strain_rate
+from dpcollapse.rheology.kinematics import strain_rate
 
 
 def augmented_viscous(r, u, v, dx=ufl.dx):

@@ -40,7 +40,7 @@ from petsc4py import PETSc
 from dpcollapse import compat
 from dpcollapse.forms import augmented, momentum
 from dpcollapse.geometry.mesher import BED, WALL
-from dpcollapse.rheology.drucker_prager import DruckerPrager, strain_rate
+from dpcollapse.rheology.kinematics import strain_rate
 from dpcollapse.solvers import al_projection as local
 from dpcollapse.solvers.anderson import Anderson
 from dpcollapse.solvers.regularized import (FlowParameters, PicardSettings, RegularizedFlow, StepReport,
@@ -137,14 +137,12 @@ class AugmentedLagrangianFlow(RegularizedFlow):
         # trace in γ̇, σ' would trade off against p (and so κ(p)) and stall the iteration
         self._rate_expr = compat.expression(ufl.dev(strain_rate(u_h)), self.T)
         self._kappa_expr = compat.expression(rheo.yield_stress(p_h), self.S)
-        if isinstance(rheo, DruckerPrager):
-            self._eta_expr = None
-            self.eta.x.array[:] = rheo.viscosity
-        else:  # μ(I): η_μI(|D|_ε, p), capped at η_max when given
-            eta = rheo.rate_viscosity(u_h, p_h, s.epsilon)
-            if getattr(rheo, "viscosity_cap", None) is not None:
-                eta = ufl.min_value(eta, rheo.viscosity_cap)
+        eta = rheo.capped_rate_viscosity(u_h, p_h, s.epsilon)  # η(|D|_ε, p), capped at η_max
+        if rheo.rate_dependent:
             self._eta_expr = compat.expression(eta, self.S)
+        else:  # a constant: set once
+            self._eta_expr = None
+            self.eta.x.array[:] = eta
 
         self.terms = {
             "inertia": momentum.inertia(rho, self.dt, u, v),

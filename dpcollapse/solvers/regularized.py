@@ -21,6 +21,7 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.forms import friction, momentum
 from dpcollapse.geometry.mesher import BED, RIGHT, SURFACE, WALL, TaggedMesh
+from dpcollapse.rheology.base import Rheology
 from dpcollapse.solvers.anderson import Anderson
 from dpcollapse.solvers.assembly import LinearSystem, zero_dirichlet
 from dpcollapse.solvers.iterative import BlockSolver
@@ -34,7 +35,7 @@ class FlowParameters:
     density: float            # ρ [kg/m³]
     gravity: float            # g [m/s²]
     bed_angle: float          # θ [rad]
-    rheology: object          # DruckerPrager or MuI: yield_stress, secant_viscosity, deviatoric_stress
+    rheology: Rheology        # the constitutive law (rheology.base)
     mu_bed: float             # μ_b
     mu_wall: float            # μ_l
     bed_no_slip: bool = False  # u = 0 on the bed instead of u·n = 0 + Coulomb friction
