@@ -38,7 +38,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from dpcollapse import compat
-from dpcollapse.forms import augmented, momentum
+from dpcollapse.forms import augmented
 from dpcollapse.geometry.mesher import BED, WALL
 from dpcollapse.rheology.kinematics import strain_rate
 from dpcollapse.solvers import al_projection as local
@@ -144,26 +144,22 @@ class AugmentedLagrangianFlow(RegularizedFlow):
             self._eta_expr = None
             self.eta.x.array[:] = eta
 
-        self.terms = {
-            "inertia": momentum.inertia(rho, self.dt, u, v),
-            "convection": momentum.convection(rho, self.u_old, self.mesh_velocity, u, v),
-            "augmented_viscous": augmented.augmented_viscous(r, u, v),
-            "pressure": momentum.pressure(pr, v),
-            "incompressibility": momentum.incompressibility(q, u),
-        }
-        L = (momentum.gravity(rho, f, v) + momentum.previous_velocity(rho, self.dt, self.u_old, v)
-             + augmented.multiplier_stress(self.sigma, self.gamma, r, v))
-
         # Coulomb walls: bed (unless no-slip) and left wall, where μ > 0
         walls = [(p.mu_wall, WALL)]
         if not p.bed_no_slip:
             walls.insert(0, (p.mu_bed, BED))
         walls = [(mu, tag) for mu, tag in walls if mu > 0 and self._has_tag(tag)]
         self.has_friction = bool(walls)
+        self.has_side_walls = bool(p.channel_width and p.mu_side > 0)
+        ds_f = sum((ds(tag) for _, tag in walls[1:]), ds(walls[0][1])) if walls else None
+        self.terms, rhs = augmented.augmented_terms(
+            rho=rho, dt=self.dt, body_force=f, r=r, u_old=self.u_old,
+            mesh_velocity=self.mesh_velocity, sigma=self.sigma, gamma=self.gamma,
+            trial=(u, pr), test=(v, q), n=n, ds_friction=ds_f, r_f=r_f, traction=self.traction,
+            slip=self.slip, r_w=r_w if self.has_side_walls else None,
+            side_traction=self.side_traction, side_slip=self.side_slip)
+        L = sum(rhs.values())
         if walls:
-            ds_f = sum((ds(tag) for _, tag in walls[1:]), ds(walls[0][1]))
-            self.terms["boundary_augmentation"] = augmented.boundary_augmentation(r_f, u, v, n, ds_f)
-            L = L + augmented.boundary_multiplier(self.traction, self.slip, r_f, v, n, ds_f)
             self._setup_friction_nodes(walls)
             vV = ufl.TestFunction(self.V)
             ones = vV[0] + vV[1]
@@ -172,11 +168,7 @@ class AugmentedLagrangianFlow(RegularizedFlow):
             self._weight_form = fem.form(ones * ds_f)                       # ∫ φ_i
             self._normal = fem.Function(self.V)
             self._weight = fem.Function(self.V)
-
-        self.has_side_walls = bool(p.channel_width and p.mu_side > 0)
         if self.has_side_walls:
-            self.terms["volume_augmentation"] = augmented.volume_augmentation(r_w, u, v)
-            L = L + augmented.volume_multiplier(self.side_traction, self.side_slip, r_w, v)
             self._side_threshold_expr = compat.expression(
                 2.0 / p.channel_width * p.mu_side * ufl.as_vector((p_h, p_h)), self.V)
             self._side_threshold = fem.Function(self.V)

@@ -19,7 +19,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from dpcollapse import compat
-from dpcollapse.forms import friction, momentum
+from dpcollapse.forms.picard import picard_terms
 from dpcollapse.geometry.mesher import BED, RIGHT, SURFACE, WALL, TaggedMesh
 from dpcollapse.rheology.base import Rheology
 from dpcollapse.solvers.anderson import Anderson
@@ -141,27 +141,17 @@ class RegularizedFlow:
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=self.tagged.facet_tags, metadata=metadata)
         n = ufl.FacetNormal(mesh)
 
-        rheo = p.rheology
-        sigma_k = rheo.deviatoric_stress(u_k, p_k, eps)
-        self.terms = {
-            "inertia": momentum.inertia(rho, self.dt, u, v),
-            "convection": momentum.convection(rho, u_k, self.mesh_velocity, u, v, dx),
-            "viscoplastic": momentum.viscoplastic(rheo.secant_viscosity(u_k, p_k, eps), u, v, dx),
-            "pressure": momentum.pressure(pr, v),
-            "incompressibility": momentum.incompressibility(q, u),
-        }
-        normal_stress = friction.normal_pressure(p_k, sigma_k, n)
         walls = [("wall_friction", p.mu_wall, WALL)]
         if not p.bed_no_slip:
             walls.insert(0, ("bed_friction", p.mu_bed, BED))
-        for name, mu, tag in walls:
-            if mu > 0 and self._has_tag(tag):
-                self.terms[name] = friction.coulomb_friction(mu, normal_stress, u_k, eps_f, u, v, n, ds(tag))
-        if p.channel_width and p.mu_side > 0:
-            self.terms["side_wall_friction"] = friction.side_wall_friction(
-                p.channel_width, p.mu_side, p_k, u_k, eps_f, u, v, dx)
+        self.terms, rhs = picard_terms(
+            p.rheology, rho=rho, dt=self.dt, body_force=f, epsilon=eps, epsilon_friction=eps_f,
+            u_iter=u_k, p_iter=p_k, u_old=self.u_old, mesh_velocity=self.mesh_velocity,
+            trial=(u, pr), test=(v, q), n=n, dx=dx, ds=ds,
+            friction_walls=[(name, mu, tag) for name, mu, tag in walls if mu > 0 and self._has_tag(tag)],
+            side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None)
         a = sum(self.terms.values())
-        L = momentum.gravity(rho, f, v) + momentum.previous_velocity(rho, self.dt, self.u_old, v)
+        L = sum(rhs.values())
         self.system = self._make_system(a, L)
 
     def _make_solver(self):
