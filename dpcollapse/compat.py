@@ -48,6 +48,7 @@ def _version_tuple(text: str) -> tuple[int, int, int]:
 
 #: (major, minor, patch) of the DOLFINx in use.
 DOLFINX_VERSION = _version_tuple(dolfinx.__version__)
+DOLFINX_VERSION_TEXT = dolfinx.__version__
 #: Elements from basix.ufl, ``fem.functionspace``, 2D-array dofmaps (DOLFINx ≥ 0.7).
 _BASIX_ELEMENTS = DOLFINX_VERSION >= (0, 7, 0)
 #: ``interpolation_points`` a property, collapse dofs a list, ``create_vector(V)``, gmsh module.

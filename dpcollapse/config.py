@@ -352,6 +352,10 @@ class OutputConfig(_Section):
     directory: PathStr = _f(
         Path("runs/rigid"), "", "Run directory, relative to the working directory (--out overrides)"
     )
+    format: Literal["xdmf", "vtx", "both"] = _f(
+        "xdmf", "", "Field output: XDMF (solution.xdmf, every DOLFINx), ADIOS2 VTX (vtx/*.bp, "
+        "DOLFINx built with ADIOS2: Debian 13 and later), or both; dpcollapse plot reads XDMF"
+    )
 
 
 class Config(_Section):

@@ -35,13 +35,14 @@ from dpcollapse.ale.quality import courant_rate
 from dpcollapse.ale.remesh import (load_multipliers, load_state, remesh_domain, snapshot,
                                   snapshot_multipliers)
 from dpcollapse.config import Config, config_to_dict, save_config
-from dpcollapse.errors import ConvergenceError, Interrupted, MeshError
+from dpcollapse.errors import ConfigError, ConvergenceError, Interrupted, MeshError
 from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.geometry.trapezoid import build_mesh
 from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
 from dpcollapse.io.diagnostics import DiagnosticsWriter
 from dpcollapse.io.runinfo import RunInfo
 from dpcollapse.io.xdmf import XDMFTimeSeries
+from dpcollapse.io.vtx import VTXTimeSeries
 from dpcollapse.discretization import (Discretization, flow_parameters, initial_velocity,  # noqa: F401
                                        picard_settings, rheology)
 
@@ -120,6 +121,10 @@ class Simulation:
     def __init__(self, cfg: Config, run_dir: Path, quiet: bool = False, resume: bool = False,
                  comm: MPI.Comm = MPI.COMM_WORLD):
         self.cfg, self.comm, self.quiet = cfg, comm, quiet
+        if cfg.output.format != "xdmf" and not compat.has_adios2():
+            raise ConfigError(f"output.format = {cfg.output.format}: this DOLFINx "
+                              f"({compat.DOLFINX_VERSION_TEXT}) has no ADIOS2 (Debian 12's 0.5.2 "
+                              "has none); use xdmf")
         self.run_dir = Path(run_dir)
         if comm.rank == 0:
             self.run_dir.mkdir(parents=True, exist_ok=True)
@@ -143,9 +148,13 @@ class Simulation:
                           "kinetic_energy0": m0["kinetic_energy"], "status": "running"}
         if comm.rank == 0:
             save_config(cfg, self.run_dir / "config.yaml")
-        self.xdmf = XDMFTimeSeries(self.run_dir, comm)
+        fmt = cfg.output.format
+        self.xdmf = XDMFTimeSeries(self.run_dir, comm) if fmt != "vtx" else None
+        self.vtx = VTXTimeSeries(self.run_dir, comm) if fmt != "xdmf" else None
         if resume:
-            self.xdmf.truncate_after(self.state["t"])
+            for series in (self.xdmf, self.vtx):
+                if series is not None:
+                    series.truncate_after(self.state["t"])
         self.diagnostics = DiagnosticsWriter(self.run_dir / "diagnostics.csv", comm,
                                              resume_after=self.state["t"] if resume else None)
         self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg))
@@ -163,10 +172,17 @@ class Simulation:
 
     # ------------------------------------------------------------------ pieces
     def _output(self) -> None:
-        if self.xdmf.steps and self.xdmf.steps[-1][1] >= self.state["t"]:
+        t = self.state["t"]
+        if self.xdmf is not None and self.xdmf.steps and self.xdmf.steps[-1][1] >= t:
             return  # already written at this time
+        if self.vtx is not None and self.vtx.steps and self.vtx.steps[-1] >= t:
+            return
         t0 = time.perf_counter()
-        self.xdmf.write(self.state["t"], self.disc.mesh, self.disc.output_functions())
+        functions = self.disc.output_functions()
+        if self.xdmf is not None:
+            self.xdmf.write(t, self.disc.mesh, functions)
+        if self.vtx is not None:
+            self.vtx.write(t, self.disc.mesh, functions)
         self.timings["output"] += time.perf_counter() - t0
 
     def _checkpoint(self) -> None:
@@ -409,6 +425,8 @@ class Simulation:
 
     def _finish(self, status: str, progress: Progress, error: str | None = None) -> dict:
         progress.close()
+        if self.vtx is not None:
+            self.vtx.close()
         self.diagnostics.close()
         its = self.iteration_counts
         m = self.disc.measures()

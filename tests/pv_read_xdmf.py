@@ -1,6 +1,7 @@
-"""Open an XDMF master file with ParaView's Xdmf3ReaderT and print a JSON summary.
+"""Open an XDMF master file with ParaView's Xdmf3ReaderT (or an ADIOS2 VTX ``.bp`` folder
+with its ADIOS2VTXReader) and print a JSON summary.
 
-Usage: pvpython tests/pv_read_xdmf.py path/to/solution.xdmf [more.xdmf ...]
+Usage: pvpython tests/pv_read_xdmf.py path/to/solution.xdmf [more.xdmf | vtx/nodes_000.bp ...]
 
 pvpython prints its own noise, so each file's summary is one line starting with
 ``PV_SUMMARY_JSON:`` (in the order given; several files share one pvpython start-up).
@@ -55,19 +56,27 @@ def snapshot(reader, servermanager, t):
 
 
 def main(path):
-    if not os.path.isfile(path):
-        raise FileNotFoundError(path)
     from paraview import servermanager
-    from paraview.simple import Xdmf3ReaderT
 
-    reader = Xdmf3ReaderT(FileName=[path])
+    if path.endswith(".bp"):
+        if not os.path.isdir(path):
+            raise FileNotFoundError(path)
+        from paraview.simple import ADIOS2VTXReader
+
+        reader = ADIOS2VTXReader(FileName=path)
+    else:
+        if not os.path.isfile(path):
+            raise FileNotFoundError(path)
+        from paraview.simple import Xdmf3ReaderT
+
+        reader = Xdmf3ReaderT(FileName=[path])
     reader.UpdatePipelineInformation()
     values = reader.TimestepValues
     # A single time step comes back as a bare float.
     times = [float(t) for t in values] if isinstance(values, (list, tuple)) or hasattr(
         values, "__iter__") else [float(values)]
     if not times:
-        raise RuntimeError("Xdmf3ReaderT found no time steps")
+        raise RuntimeError("the reader found no time steps")
     snapshots = [snapshot(reader, servermanager, t) for t in times]
     # The reader's array information is filled in by the first pipeline update.
     return {
