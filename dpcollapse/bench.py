@@ -270,7 +270,7 @@ def linear_solve_time(cfg, comm, repeats: int = REPEATS) -> tuple[float, int]:
     from dolfinx import fem
     from mpi4py import MPI
 
-    from dpcollapse.geometry.trapezoid import build_mesh
+    from dpcollapse.scenes.registry import build_mesh
     from dpcollapse.simulation import Discretization, initial_velocity
 
     disc = Discretization(build_mesh(cfg, comm), cfg)

@@ -174,7 +174,7 @@ def run(config: Path, overrides: tuple[str, ...], out: Path | None, quiet: bool,
 def mesh(config: Path, overrides: tuple[str, ...], out: Path | None) -> int:
     """Write the initial mesh of CONFIG as a gmsh .msh file."""
     cfg = load_config(config, overrides)
-    write_msh = _lazy("dpcollapse.geometry.trapezoid", "write_msh")
+    write_msh = _lazy("dpcollapse.scenes.registry", "write_msh")
     write_msh(cfg, Path(out or Path("meshes") / f"{config.stem}.msh"))
     return 0
 

@@ -21,6 +21,7 @@ from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.rheology.base import Rheology
 from dpcollapse.rheology.drucker_prager import DruckerPrager
 from dpcollapse.rheology.mu_i import MuI
+from dpcollapse.scenes.registry import scene as make_scene
 from dpcollapse.solvers.augmented import AugmentedLagrangianFlow, AugmentedSettings, default_augmentation
 from dpcollapse.solvers.regularized import FlowParameters, PicardSettings, RegularizedFlow
 
@@ -38,21 +39,20 @@ def rheology(cfg: Config) -> Rheology:
     return DruckerPrager(m.viscosity, m.mu_s, m.cohesion)
 
 
-def flow_parameters(cfg: Config) -> FlowParameters:
+def flow_parameters(cfg: Config, scene=None) -> FlowParameters:
+    """Physical parameters of the flow: the material and the boundaries of the scene (of the
+    config when not given)."""
     m, b = cfg.material, cfg.boundary
+    scene = scene or make_scene(cfg)
     return FlowParameters(
         density=m.density, gravity=m.gravity, bed_angle=math.radians(cfg.geometry.bed_angle),
-        rheology=rheology(cfg), mu_bed=b.mu_bed, mu_wall=b.mu_wall,
-        bed_no_slip=b.bed_condition == "no_slip", channel_width=b.channel_width, mu_side=b.mu_side)
+        rheology=rheology(cfg), boundaries=scene.boundaries(), channel_width=b.channel_width,
+        mu_side=b.mu_side)
 
 
 def initial_velocity(cfg: Config):
-    """The initial velocity u(x, y) as a callable for ``Function.interpolate``:
-    rest, or the half-Poiseuille profile U_s (2y/h − y²/h²) along the bed."""
-    h, us = cfg.geometry.height, cfg.initial.surface_speed
-    if cfg.initial.velocity == "half_poiseuille":
-        return lambda x: np.vstack([us * (2 * x[1] / h - (x[1] / h) ** 2), np.zeros(x.shape[1])])
-    return lambda x: np.zeros((2, x.shape[1]))
+    """The initial velocity u(x, y) of the config's scene, for ``Function.interpolate``."""
+    return make_scene(cfg).initial_velocity()
 
 
 def picard_settings(cfg: Config) -> PicardSettings:
@@ -82,11 +82,11 @@ def augmented_settings(cfg: Config) -> AugmentedSettings:
                              n.epsilon, n.epsilon_friction, n.linear_solver, n.anderson_depth)
 
 
-def make_flow(tagged: TaggedMesh, cfg: Config):
+def make_flow(tagged: TaggedMesh, cfg: Config, scene=None):
     """The flow solver of ``numerics.method`` on one mesh."""
     if cfg.numerics.method == "augmented_lagrangian":
-        return AugmentedLagrangianFlow(tagged, flow_parameters(cfg), augmented_settings(cfg))
-    return RegularizedFlow(tagged, flow_parameters(cfg), picard_settings(cfg))
+        return AugmentedLagrangianFlow(tagged, flow_parameters(cfg, scene), augmented_settings(cfg))
+    return RegularizedFlow(tagged, flow_parameters(cfg, scene), picard_settings(cfg))
 
 
 class Discretization:
@@ -96,7 +96,8 @@ class Discretization:
         self.tagged = tagged
         self.mesh = mesh = tagged.mesh
         self.comm = mesh.comm
-        self.flow = make_flow(tagged, cfg)
+        self.scene = make_scene(cfg)
+        self.flow = make_flow(tagged, cfg, self.scene)
         self.orientation = cell_orientation(mesh)
         self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
                                  direct_solver(cfg)) if cfg.numerics.ale else None
@@ -133,11 +134,11 @@ class Discretization:
         """Front position (furthest x of the mass: the toe, or the nose of an overturning
         front), maximum height, kinetic energy, area, max speed, mesh quality."""
         x = self.mesh.geometry.x
-        front = x[:, 0].max() if len(x) else -np.inf
+        front, height = self.scene.extent(x)
         speed = np.linalg.norm(self.flow.u_old.x.array.reshape(-1, 2), axis=1)
         out = {
             "front": self.comm.allreduce(float(front), op=MPI.MAX),
-            "max_height": self.comm.allreduce(float(x[:, 1].max()), op=MPI.MAX),
+            "max_height": self.comm.allreduce(float(height), op=MPI.MAX),
             "kinetic_energy": self.comm.allreduce(fem.assemble_scalar(self._kinetic), op=MPI.SUM),
             "gravity_moment": self.comm.allreduce(fem.assemble_scalar(self._gravity_moment), op=MPI.SUM),
             "area": self.area(),

@@ -37,7 +37,7 @@ from dpcollapse.ale.remesh import (load_multipliers, load_state, remesh_domain, 
 from dpcollapse.config import Config, config_to_dict, save_config
 from dpcollapse.errors import ConfigError, ConvergenceError, Interrupted, MeshError
 from dpcollapse.geometry.mesher import TaggedMesh
-from dpcollapse.geometry.trapezoid import build_mesh
+from dpcollapse.scenes.registry import build_mesh
 from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
 from dpcollapse.io.diagnostics import DiagnosticsWriter
 from dpcollapse.io.runinfo import RunInfo

@@ -39,8 +39,8 @@ from petsc4py import PETSc
 
 from dpcollapse import compat
 from dpcollapse.forms import augmented
-from dpcollapse.geometry.mesher import BED, WALL
 from dpcollapse.rheology.kinematics import strain_rate
+from dpcollapse.scenes.base import BoundaryKind
 from dpcollapse.solvers import al_projection as local
 from dpcollapse.solvers.anderson import Anderson
 from dpcollapse.solvers.regularized import (FlowParameters, PicardSettings, RegularizedFlow, StepReport,
@@ -144,14 +144,11 @@ class AugmentedLagrangianFlow(RegularizedFlow):
             self._eta_expr = None
             self.eta.x.array[:] = eta
 
-        # Coulomb walls: bed (unless no-slip) and left wall, where μ > 0
-        walls = [(p.mu_wall, WALL)]
-        if not p.bed_no_slip:
-            walls.insert(0, (p.mu_bed, BED))
-        walls = [(mu, tag) for mu, tag in walls if mu > 0 and self._has_tag(tag)]
+        # Coulomb walls of the scene (μ > 0) present on this mesh
+        walls = [b for b in p.boundaries if b.has_friction and self._has_tag(b.tag)]
         self.has_friction = bool(walls)
         self.has_side_walls = bool(p.channel_width and p.mu_side > 0)
-        ds_f = sum((ds(tag) for _, tag in walls[1:]), ds(walls[0][1])) if walls else None
+        ds_f = sum((ds(b.tag) for b in walls[1:]), ds(walls[0].tag)) if walls else None
         self.terms, rhs = augmented.augmented_terms(
             rho=rho, dt=self.dt, body_force=f, r=r, u_old=self.u_old,
             mesh_velocity=self.mesh_velocity, sigma=self.sigma, gamma=self.gamma,
@@ -177,24 +174,22 @@ class AugmentedLagrangianFlow(RegularizedFlow):
         self.system = self._make_system(a, L)
 
     def _setup_friction_nodes(self, walls) -> None:
-        """Velocity nodes (blocks of V) on the friction walls, their unit tangent and μ.
-        Nodes on two walls (the corner, where u = 0) are left out."""
+        """Velocity nodes (blocks of V) on the friction walls, their unit tangent (from the
+        wall's normal) and μ. Nodes on two walls (a corner, where u = 0) are left out."""
         fdim = self.mesh.topology.dim - 1
         ft = self.tagged.facet_tags
-        found = {}
-        for mu, tag in walls:
-            blocks = fem.locate_dofs_topological(self.V, fdim, ft.indices[ft.values == tag])
-            found[tag] = (mu, np.asarray(blocks, dtype=np.int64))
+        found = [(b, np.asarray(fem.locate_dofs_topological(self.V, fdim, ft.indices[ft.values == b.tag]),
+                                dtype=np.int64)) for b in walls]
+        counts: dict[int, int] = {}
+        for _, nodes in found:
+            for i in nodes:
+                counts[int(i)] = counts.get(int(i), 0) + 1
         blocks, tangents, mus = [], [], []
-        tangent = {BED: (1.0, 0.0), WALL: (0.0, 1.0)}   # bed y = 0, wall x = 0
-        shared = set()
-        if len(found) == 2:
-            shared = set(found[BED][1]) & set(found[WALL][1])
-        for tag, (mu, b) in found.items():
-            b = np.array([i for i in b if i not in shared], dtype=np.int64)
+        for wall, nodes in found:
+            b = np.array([i for i in nodes if counts[int(i)] == 1], dtype=np.int64)
             blocks.append(b)
-            tangents.append(np.tile(tangent[tag], (len(b), 1)))
-            mus.append(np.full(len(b), mu))
+            tangents.append(np.tile(wall.tangent, (len(b), 1)))
+            mus.append(np.full(len(b), wall.friction))
         self._f_blocks = np.concatenate(blocks)
         self._f_tangent = np.concatenate(tangents)
         self._f_mu = np.concatenate(mus)
@@ -329,10 +324,9 @@ class AugmentedLagrangianFlow(RegularizedFlow):
         """First guess of p where none exists yet (the initial state):
         p = ρ g cos θ [s(x) − y]_+ with s(x) the free-surface height above x. The first step
         then starts from the yield limit of a mass at rest, not from κ = 0."""
-        from dpcollapse.geometry.mesher import SURFACE
-
         ft = self.tagged.facet_tags
-        facets = ft.indices[ft.values == SURFACE]
+        surface_tags = [b.tag for b in self.params.of_kind(BoundaryKind.FREE_SURFACE)]
+        facets = ft.indices[np.isin(ft.values, surface_tags)]
         nodes = compat.entities_to_geometry(self.mesh, 1, facets)
         pts = self.mesh.geometry.x[:, :2][nodes.ravel()] if len(facets) else np.zeros((0, 2))
         pts = np.concatenate(self.comm.allgather(pts))

@@ -20,8 +20,9 @@ from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.forms.picard import picard_terms
-from dpcollapse.geometry.mesher import BED, RIGHT, SURFACE, WALL, TaggedMesh
+from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.rheology.base import Rheology
+from dpcollapse.scenes.base import SOLID, Boundary, BoundaryKind
 from dpcollapse.solvers.anderson import Anderson
 from dpcollapse.solvers.assembly import LinearSystem, zero_dirichlet
 from dpcollapse.solvers.iterative import BlockSolver
@@ -36,11 +37,18 @@ class FlowParameters:
     gravity: float            # g [m/s²]
     bed_angle: float          # θ [rad]
     rheology: Rheology        # the constitutive law (rheology.base)
-    mu_bed: float             # μ_b
-    mu_wall: float            # μ_l
-    bed_no_slip: bool = False  # u = 0 on the bed instead of u·n = 0 + Coulomb friction
+    boundaries: tuple[Boundary, ...] = ()  # of the scene (scenes.base): kind, normal, μ per tag
     channel_width: float | None = None  # w: side-wall friction (2/w) μ_w p u/|u| when given
     mu_side: float = 0.0      # μ_w
+
+    def of_kind(self, *kinds: BoundaryKind) -> list[Boundary]:
+        """The boundaries of the given kinds, in the scene's order."""
+        return [b for b in self.boundaries if b.kind in kinds]
+
+    @property
+    def periodic_slave(self) -> Boundary | None:
+        """The side tied to its periodic image (the one with a translation), if any."""
+        return next((b for b in self.of_kind(BoundaryKind.PERIODIC) if b.translation), None)
 
     @property
     def body_force(self) -> tuple[float, float]:
@@ -141,14 +149,12 @@ class RegularizedFlow:
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=self.tagged.facet_tags, metadata=metadata)
         n = ufl.FacetNormal(mesh)
 
-        walls = [("wall_friction", p.mu_wall, WALL)]
-        if not p.bed_no_slip:
-            walls.insert(0, ("bed_friction", p.mu_bed, BED))
+        walls = [(f"{b.name}_friction", b.friction, b.tag) for b in p.boundaries if b.has_friction]
         self.terms, rhs = picard_terms(
             p.rheology, rho=rho, dt=self.dt, body_force=f, epsilon=eps, epsilon_friction=eps_f,
             u_iter=u_k, p_iter=p_k, u_old=self.u_old, mesh_velocity=self.mesh_velocity,
             trial=(u, pr), test=(v, q), n=n, dx=dx, ds=ds,
-            friction_walls=[(name, mu, tag) for name, mu, tag in walls if mu > 0 and self._has_tag(tag)],
+            friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
             side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None)
         a = sum(self.terms.values())
         L = sum(rhs.values())
@@ -167,7 +173,7 @@ class RegularizedFlow:
         """FGMRES + Schur fieldsplit (``solvers.iterative``) with its two pressure operators
         on the current iterate: the mass matrix weighted by 2/ν (ν the secant viscosity) and
         the Laplacian weighted by Δt/ρ, with p = 0 on the free surface."""
-        if self._has_tag(RIGHT):
+        if self.params.periodic_slave is not None:
             raise ValueError("linear_solver iterative: not available on a periodic layer")
         _, p = ufl.TrialFunctions(self.W)
         _, q = ufl.TestFunctions(self.W)
@@ -176,19 +182,21 @@ class RegularizedFlow:
         dx = ufl.Measure("dx", domain=self.mesh, metadata={"quadrature_degree": 2})
         mass = 2.0 / nu * p * q * dx
         laplacian = self.dt / self._rho * ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx
-        bcs = [zero_dirichlet(self.W.sub(1), self.tagged.facet_tags, SURFACE)]
+        bcs = [zero_dirichlet(self.W.sub(1), self.tagged.facet_tags, b.tag)
+               for b in self.params.of_kind(BoundaryKind.FREE_SURFACE)]
         return BlockSolver(self.comm, self.W, self.velocity_dofs, self.pressure_dofs, mass,
                            laplacian, bcs, prefix=prefix, rtol=rtol, max_it=max_iterations)
 
     def _make_system(self, a, L):
-        """The linear system of (a, L) with the Dirichlet conditions; periodic in x (slave
-        side RIGHT, master side x = 0) when the mesh has a RIGHT tag."""
+        """The linear system of (a, L) with the Dirichlet conditions; periodic when the scene
+        has a periodic pair (the slave side carries the translation onto its master)."""
         bcs = self._dirichlet_bcs()
-        if self._has_tag(RIGHT):
+        slave = self.params.periodic_slave
+        if slave is not None:
             from dpcollapse.solvers.periodic import PeriodicLinearSystem
 
-            length = self.comm.allreduce(float(self.mesh.geometry.x[:, 0].max()), op=MPI.MAX)
-            return PeriodicLinearSystem(a, L, bcs, self.W, self.tagged.facet_tags, RIGHT, (-length, 0.0))
+            return PeriodicLinearSystem(a, L, bcs, self.W, self.tagged.facet_tags, slave.tag,
+                                        slave.translation)
         return LinearSystem(a, L, bcs)
 
     def _has_tag(self, tag: int) -> bool:
@@ -196,12 +204,13 @@ class RegularizedFlow:
         return self.comm.allreduce(local, op=MPI.LOR)
 
     def _dirichlet_bcs(self):
-        """No penetration u·n = 0 exactly: u_y = 0 on the bed (y = 0), u_x = 0 on the wall
-        (x = 0); or no slip u = 0 on the bed."""
+        """On each solid side of the scene: no slip u = 0, or no penetration u·n = 0 exactly
+        (the component along its axis-parallel normal: u_y = 0 on the bed y = 0, u_x = 0 on
+        the wall x = 0)."""
         velocity = self.W.sub(0)
-        constrained = [(BED, None if self.params.bed_no_slip else 1), (WALL, 0)]
-        return [zero_dirichlet(velocity if comp is None else velocity.sub(comp), self.tagged.facet_tags, tag)
-                for tag, comp in constrained]
+        ft = self.tagged.facet_tags
+        return [zero_dirichlet(velocity if b.kind == BoundaryKind.NO_SLIP else velocity.sub(b.normal_axis()),
+                               ft, b.tag) for b in self.params.of_kind(*SOLID)]
 
     def set_velocity(self, profile) -> None:
         """Set uⁿ and the first iterate to ``profile(x) -> (2, n)`` (initial condition)."""
