@@ -4,6 +4,7 @@
 # README's own ./scripts/test.sh inside it (serial suite + MPI tests).
 #
 #   scripts/chroot-test.sh RELEASE [--fresh] [-- PYTEST_ARGS...]
+#   scripts/chroot-test.sh RELEASE [--fresh] --run 'COMMAND'   # set up, then COMMAND instead
 #
 # RELEASE is a Debian suite: trixie (DOLFINx 0.9), sid (DOLFINx 0.11), bookworm (0.5).
 # The chroot lives in $DPCOLLAPSE_CHROOT_DIR/RELEASE (default /var/tmp/dpcollapse-chroot);
@@ -17,14 +18,26 @@ release="${1:-}"
 [ -n "$release" ] || { echo "usage: scripts/chroot-test.sh RELEASE [--fresh] [-- PYTEST_ARGS...]" >&2; exit 2; }
 shift
 fresh=0
-if [ "${1:-}" = "--fresh" ]; then fresh=1; shift; fi
-if [ "${1:-}" = "--" ]; then shift; fi
+command=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --fresh) fresh=1; shift ;;
+    --run) command="${2:?--run needs a command}"; shift 2 ;;
+    --) shift; break ;;
+    *) break ;;
+  esac
+done
 [ "$(id -u)" -eq 0 ] || { echo "chroot-test: needs root (debootstrap, mount, chroot)" >&2; exit 2; }
 
 mirror="${DPCOLLAPSE_DEBIAN_MIRROR:-http://deb.debian.org/debian}"
 base="${DPCOLLAPSE_CHROOT_DIR:-/var/tmp/dpcollapse-chroot}"
 target="$base/$release"
 marker="$target/.dpcollapse-bootstrapped"
+mkdir -p "$base"
+# One run per release at a time: a second one would replace the work tree and unmount the
+# file systems under the first.
+exec 9>"$base/$release.lock"
+flock -n 9 || { echo "chroot-test: another run on $release is in progress ($base/$release.lock)" >&2; exit 2; }
 
 mounts=()
 cleanup() {
@@ -90,7 +103,14 @@ fi
 pip_env=()
 while IFS='=' read -r k v; do pip_env+=("$k=$v"); done < <(env | grep -E '^PIP_' || true)
 
-echo "chroot-test: $release: ./scripts/test.sh $*"
+if [ -n "$command" ]; then
+  inner='./scripts/setup.sh && export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
+    OMPI_MCA_rmaps_base_oversubscribe=1 XDG_CACHE_HOME=/work/dpcollapse/.cache && '"$command"
+  echo "chroot-test: $release: $command"
+else
+  inner='./scripts/test.sh "$@"'
+  echo "chroot-test: $release: ./scripts/test.sh $*"
+fi
 chroot "$target" /usr/bin/env -i HOME=/root PATH=/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin \
   LANG=C.UTF-8 CI="${CI:-}" "${pip_env[@]}" \
-  /bin/bash -c 'cd /work/dpcollapse && ./scripts/test.sh "$@"' chroot-test "$@"
+  /bin/bash -c "cd /work/dpcollapse && $inner" chroot-test "$@"

@@ -242,7 +242,7 @@ def test_bagnold_profile_consistency():
     theta, h, rho, g = math.atan(0.45), 0.05, 1500.0, 9.81
     y = np.linspace(0.0, h, 2001)
     u = bagnold_velocity(law, theta, h, y, rho, g)
-    assert u[0] == 0.0
+    assert abs(u[0]) <= 1e-12 * u.max()  # zero up to round-off (numpy 2: 9.3e-16)
     # README form for ρ = ρ_s
     It = bagnold_inertial_number(law, theta)
     readme = (2 / 3) * (It / D_GRAIN) * math.sqrt(g * math.cos(theta)) * (h**1.5 - (h - y) ** 1.5)

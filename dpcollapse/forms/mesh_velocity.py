@@ -12,13 +12,14 @@ surface the kinematic condition is imposed by a penalty scaled by the cell size 
 from __future__ import annotations
 
 import ufl
+from ufl.domain import extract_unique_domain
 
 from dpcollapse.rheology.kinematics import strain_rate
 
 
 def mesh_velocity_forms(w, z, u, penalty, ds_surface):
     """Bilinear and linear forms (a, L) of the penalized mesh-velocity problem."""
-    mesh = w.ufl_domain() if hasattr(w, "ufl_domain") else None
+    mesh = extract_unique_domain(w)
     n = ufl.FacetNormal(mesh)
     h = ufl.CellDiameter(mesh)
     a = ufl.inner(strain_rate(w), strain_rate(z)) * ufl.dx
