@@ -42,7 +42,6 @@ exponent in log-log; the same for the time of one linear solve.
 from __future__ import annotations
 
 import ctypes
-import functools
 import gc
 import json
 import logging
@@ -141,85 +140,53 @@ def parse_cases(text: str | None, quick: bool) -> list[str]:
 
 # ---------------------------------------------------------------------- instrumentation
 class Instrument:
-    """Accumulates assembly / factorization / solve time of the flow systems it wraps."""
+    """Assembly / factorization / solve time and counts of the flow systems of a run, summed
+    over every discretization it is shown (``track``, a subscriber of the run's
+    ``discretization`` event): the systems and solvers keep these counts themselves
+    (``solvers.assembly``, ``solvers.linear``), nothing is wrapped."""
 
-    def __init__(self, split_factorization: bool = True):
-        self.split_factorization = split_factorization
-        self.times = {"assembly": 0.0, "factorization": 0.0, "solve": 0.0}
-        self.linear_solves = 0
-        self.factorizations = 0
-        self.wrapped = 0
+    def __init__(self):
+        self.flows: list = []
 
-    def wrap(self, disc) -> None:
-        """Wrap the instance methods of ``disc.flow``'s system and solver (once per flow)."""
-        flow = getattr(disc, "flow", None)
-        if flow is None or getattr(flow, "_bench_instrument", None) is self:
-            return
-        flow._bench_instrument = self
-        system, solver = flow.system, flow.solver
-        times, clock = self.times, time.perf_counter
-        assemble_matrix, assemble_vector = system.assemble_matrix, system.assemble_vector
-        set_operator, solve = solver.set_operator, solver.solve
+    def track(self, sim, disc) -> None:
+        """Event ``discretization``: count the flow of a new discretization (once)."""
+        if all(flow is not disc.flow for flow in self.flows):
+            self.flows.append(disc.flow)
 
-        def timed(fn, bucket):
-            """``fn`` with its wall time added to ``times[bucket]``."""
-            def call(*args, **kwargs):
-                t0 = clock()
-                try:
-                    return fn(*args, **kwargs)
-                finally:
-                    times[bucket] += clock() - t0
-            return call
+    def subscribe(self, events) -> Instrument:
+        events.subscribe("discretization", self.track)
+        return self
 
-        timed_assemble_matrix = timed(assemble_matrix, "assembly")
-        timed_assemble_vector = timed(assemble_vector, "assembly")
-        timed_solve_inner = timed(solve, "solve")
+    @property
+    def wrapped(self) -> int:
+        """Discretizations tracked."""
+        return len(self.flows)
 
-        def timed_set_operator(A, *args, **kwargs):
-            set_operator(A, *args, **kwargs)
-            self.factorizations += 1
-            if self.split_factorization:
-                t0 = clock()
-                try:
-                    solver.ksp.setUp()   # PCSetUp: the LU factorization, timed on its own
-                finally:
-                    times["factorization"] += clock() - t0
+    @property
+    def times(self) -> dict[str, float]:
+        return {
+            "assembly": sum(f.system.seconds["assembly"] for f in self.flows),
+            "factorization": sum(f.solver.seconds["factorization"] for f in self.flows),
+            "solve": sum(f.solver.seconds["solve"] for f in self.flows),
+        }
 
-        def timed_solve(*args, **kwargs):
-            try:
-                return timed_solve_inner(*args, **kwargs)
-            finally:
-                self.linear_solves += 1
+    @property
+    def linear_solves(self) -> int:
+        return sum(f.solver.solves for f in self.flows)
 
-        system.assemble_matrix = timed_assemble_matrix
-        system.assemble_vector = timed_assemble_vector
-        solver.set_operator = timed_set_operator
-        solver.solve = timed_solve
-        self.wrapped += 1
+    @property
+    def factorizations(self) -> int:
+        return sum(f.solver.factorizations for f in self.flows)
 
 
-@functools.cache
-def _simulation_class():
+def instrumented_simulation(instrument, cfg, run_dir, **kwargs):
+    """A Simulation whose discretizations ``instrument`` tracks from the first one on."""
+    from dpcollapse.loop import Events
     from dpcollapse.simulation import Simulation
 
-    class _BenchSimulation(Simulation):
-        """A Simulation whose every new discretization is instrumented as it is assigned
-        (initial mesh, remesh, landing rebuild), so no solve escapes the timers."""
-
-        def __init__(self, instrument: Instrument, *args, **kwargs):
-            self._instrument = instrument
-            super().__init__(*args, **kwargs)
-
-        @property
-        def disc(self):
-            return self.__dict__["disc"]
-
-        @disc.setter
-        def disc(self, value):
-            self.__dict__["disc"] = value
-            self._instrument.wrap(value)
-
-    return _BenchSimulation
+    events = Events()
+    instrument.subscribe(events)
+    return Simulation(cfg, run_dir, events=events, **kwargs)
 
 
 # ---------------------------------------------------------------------- memory
@@ -306,7 +273,7 @@ def _mean_over_ranks(comm, values: dict) -> dict:
 
 
 def run_case(name: str, cfg, run_dir: Path, comm, kind: str = "case",
-             split_factorization: bool = True, calibrate: bool = True) -> dict:
+             calibrate: bool = True) -> dict:
     """Run one case and return its row (every rank gets the same row)."""
     from mpi4py import MPI
 
@@ -314,9 +281,9 @@ def run_case(name: str, cfg, run_dir: Path, comm, kind: str = "case",
                  "mesh_size": cfg.geometry.mesh_size}
     t_lin, dofs = linear_solve_time(cfg, comm) if calibrate else (math.nan, -1)
     peak_reset = comm.allreduce(reset_peak_memory(), op=MPI.LAND)
-    instrument = Instrument(split_factorization)
+    instrument = Instrument()
     t0 = time.perf_counter()
-    sim = _simulation_class()(instrument, cfg, run_dir, quiet=True, comm=comm)
+    sim = instrumented_simulation(instrument, cfg, run_dir, quiet=True, comm=comm)
     setup = time.perf_counter() - t0
     if dofs < 0:
         dofs = _global_dofs(sim.disc.flow.W)
@@ -333,7 +300,7 @@ def run_case(name: str, cfg, run_dir: Path, comm, kind: str = "case",
         sim.disc.destroy()
     peak = comm.allreduce(peak_memory_mb(), op=MPI.MAX)
     tm = dict(sim.timings)
-    steps, t_sim = int(sim.state["step"]), float(sim.state["t"])
+    steps, t_sim = int(sim.state.step), float(sim.state.t)
     its = np.asarray(sim.iteration_counts, dtype=float)
     local = {
         "total": tm.get("total", time.perf_counter() - sim.wall0),
@@ -360,7 +327,7 @@ def run_case(name: str, cfg, run_dir: Path, comm, kind: str = "case",
         "linear_solves_per_step": (flow_solves + sim.ale_solves) * per_step,
         "flow_solves_per_step": flow_solves * per_step,
         "ale_solves_per_step": sim.ale_solves * per_step,
-        "remeshes": int(sim.state.get("remeshes", 0)),
+        "remeshes": int(sim.state.remeshes),
         "dt_min_s": min(sim.step_sizes, default=math.nan),
         "dt_mean_s": t_sim * per_step if steps else math.nan,
         "dt_max_s": max(sim.step_sizes, default=math.nan),

@@ -145,8 +145,8 @@ def test_energy_guard_detects_instability(tmp_path):
     sim.run()
     m = sim.disc.measures()
     sim._check_energy(m)  # the real state passes
-    sim.state["kinetic_energy_previous"] = m["kinetic_energy"] + 10.0 * (m["gravity_moment"]
-                                                                       - sim.state["gravity_moment0"] + 1.0)
+    sim.state.kinetic_energy_previous = m["kinetic_energy"] + 10.0 * (m["gravity_moment"]
+                                                                       - sim.state.gravity_moment0 + 1.0)
     with pytest.raises(MeshError, match="numerically unstable"):
         sim._check_energy(m)
 

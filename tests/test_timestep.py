@@ -83,7 +83,7 @@ def test_adaptive_resume_continues_the_run(tmp_path):
     _sim("rigid.yaml", over, tmp_path / "full").run()
     full = read_diagnostics(tmp_path / "full" / "diagnostics.csv")
     sim = _sim("rigid.yaml", over, tmp_path / "split")
-    assert sim.run(observers=[lambda s: s.state["step"] >= 12])["status"] == "stopped_by_observer"
+    assert sim.run(observers=[lambda s: s.state.step >= 12])["status"] == "stopped_by_observer"
     _sim("rigid.yaml", over, tmp_path / "split", resume=True).run()
     resumed = read_diagnostics(tmp_path / "split" / "diagnostics.csv")
     assert len(resumed["t"]) == len(full["t"]) > 12

@@ -129,7 +129,7 @@ class SteadyObserver:
         return math.sqrt(err / norm)
 
     def __call__(self, sim: Simulation) -> bool:
-        t = sim.state["t"]
+        t = sim.state.t
         self.iterations.append((t, sim.iteration_counts[-1]))
         if t < self._next - 1e-9:
             return False
