@@ -22,8 +22,9 @@ from dpcollapse.rheology.base import Rheology
 from dpcollapse.rheology.drucker_prager import DruckerPrager
 from dpcollapse.rheology.mu_i import MuI
 from dpcollapse.scenes.registry import scene as make_scene
-from dpcollapse.solvers.augmented import AugmentedLagrangianFlow, AugmentedSettings, default_augmentation
-from dpcollapse.solvers.regularized import FlowParameters, PicardSettings, RegularizedFlow
+from dpcollapse.models.stokes.augmented import AugmentedLagrangianFlow, AugmentedSettings, default_augmentation
+from dpcollapse.models.stokes.regularized import PicardSettings, RegularizedFlow
+from dpcollapse.models.stokes.state import FlowParameters
 
 #: Speed above which a point counts as flowing (seed 000) [m/s].
 FLOWING_SPEED = 1e-3
@@ -112,9 +113,8 @@ class Discretization:
         self.out_pressure = fem.Function(S1, name="pressure")
         self.out_strain_rate = fem.Function(S0, name="strain_rate")
         self.out_flowing = fem.Function(S1, name="flowing")
-        self.out_rigid = None
-        if isinstance(self.flow, AugmentedLagrangianFlow):  # exact rigid zone: γ̇ = 0
-            self.out_rigid = fem.Function(S0, name="rigid")
+        # per-cell fields of the model (AL: the exact rigid zone γ̇ = 0)
+        self.out_cells = [fem.Function(S0, name=name) for name in self.flow.exported_cell_fields]
         D = ufl.sym(ufl.grad(u))
         self._strain_expr = compat.expression(ufl.sqrt(ufl.inner(D, D)), S0)
         self.law = law = self.flow.params.rheology
@@ -172,10 +172,10 @@ class Discretization:
         speed = np.linalg.norm(self.out_velocity.x.array.reshape(-1, 2), axis=1)
         self.out_flowing.x.array[:] = (speed > FLOWING_SPEED).astype(float)
         fields = [self.out_velocity, self.out_pressure, self.out_strain_rate, self.out_flowing]
-        if self.out_rigid is not None:
-            cells = compat.cell_dofs(self.out_rigid.function_space)[:, 0]
-            self.out_rigid.x.array[cells] = self.flow.rigid_cells().astype(float)
-            fields.append(self.out_rigid)
+        for function in self.out_cells:
+            cells = compat.cell_dofs(function.function_space)[:, 0]
+            function.x.array[cells] = self.flow.cell_field(function.name)
+            fields.append(function)
         for function, expr in self.out_extra.values():
             function.interpolate(expr)
             fields.append(function)

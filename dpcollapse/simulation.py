@@ -32,8 +32,6 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.ale.motion import quality, retag_landed
 from dpcollapse.ale.quality import courant_rate
-from dpcollapse.ale.remesh import (load_multipliers, load_state, snapshot,
-                                  snapshot_multipliers)
 from dpcollapse.config import Config, config_to_dict, save_config
 from dpcollapse.domain import moving
 from dpcollapse.domain.base import make_domain
@@ -135,9 +133,7 @@ class Simulation:
             tagged, u, p, state, extra = load_checkpoint(self.checkpoint_path, comm)
             self.state = LoopState.from_dict(state)
             self._use(Discretization(tagged, cfg))
-            load_state(self.disc.flow, u, p)
-            load_multipliers(self.disc.flow, extra)
-            self.disc.flow.solution.x.array[:] = self.disc.flow.iterate.x.array
+            self.disc.flow.transfer({"velocity": u, "pressure": p, **extra})
             log.info("resuming from t = %.4f s (step %d)", self.state.t, self.state.step)
         else:
             self.state = LoopState(dt_target=cfg.time.dt)
@@ -201,9 +197,9 @@ class Simulation:
             return
         self.state.checkpoint_step = self.state.step
         t0 = time.perf_counter()
-        u, p = snapshot(self.disc.flow)
-        save_checkpoint(self.checkpoint_path, self.disc.tagged, u, p, self.state.to_dict(),
-                        snapshot_multipliers(self.disc.flow))
+        fields = self.disc.flow.snapshot()
+        u, p = fields.pop("velocity"), fields.pop("pressure")
+        save_checkpoint(self.checkpoint_path, self.disc.tagged, u, p, self.state.to_dict(), fields)
         self.timings["output"] += time.perf_counter() - t0
 
     def _remesh(self, reason: str) -> None:
@@ -211,13 +207,11 @@ class Simulation:
         cfg, old = self.cfg, self.disc
         area_before = old.area()
         cells_before = self.comm.allreduce(compat.num_owned_cells(old.mesh), op=MPI.SUM)
-        u, p = snapshot(old.flow)
-        multipliers = snapshot_multipliers(old.flow)
+        fields = old.flow.snapshot()
         tagged, nverts = self.domain.remesh(old.tagged, self.state.area0)
         self._retire(old)
         self._use(Discretization(tagged, cfg))
-        outside = load_state(self.disc.flow, u, p)
-        load_multipliers(self.disc.flow, multipliers)
+        outside = self.disc.flow.transfer(fields)
         area_after = self.disc.area()
         cells_after = self.comm.allreduce(compat.num_owned_cells(tagged.mesh), op=MPI.SUM)
         self.state.remeshes += 1

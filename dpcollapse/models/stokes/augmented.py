@@ -19,7 +19,7 @@ Stop when the multiplier residuals and the velocity change are all small::
     ‖u^k − u^{k−1}‖ max(1, ρ/(1 − ρ)) ≤ rtol ‖u^k‖ + atol
 
 (ρ the observed contraction of successive velocity increments: the distance to the limit
-of a linearly converging iteration, as in ``solvers.regularized``)
+of a linearly converging iteration, as in ``models.stokes.regularized``)
 (root mean squares over Ω, Γ and the velocity dofs; ℓ = √|Ω|). The rigid zone is where
 γ̇ = 0 exactly. Multipliers are carried from step to step (warm start); on the moving mesh
 their nodal values move with the nodes, like uⁿ.
@@ -39,13 +39,19 @@ from petsc4py import PETSc
 
 from dpcollapse import compat
 from dpcollapse.forms import augmented
+from dpcollapse.models.stokes.regularized import PicardSettings, RegularizedFlow
+from dpcollapse.models.stokes.state import (
+    FlowParameters,
+    StepReport,
+    StokesState,
+    contraction,
+    distance_to_limit,
+)
 from dpcollapse.rheology.kinematics import strain_rate
 from dpcollapse.scenes.base import BoundaryKind
 from dpcollapse.solvers import al_projection as local
 from dpcollapse.solvers.anderson import Anderson
-from dpcollapse.solvers.regularized import (FlowParameters, PicardSettings, RegularizedFlow, StepReport,
-                                           contraction, distance_to_limit)
-
+from dpcollapse.solvers.linear import DirectSolver
 
 #: Polynomial degree of the discontinuous multiplier space (γ̇, σ') and of the nodes where
 #: the local steps are taken.
@@ -66,7 +72,7 @@ class AugmentedSettings:
     epsilon_friction: float = 1e-6  # the first step's regularized start [m/s]
     linear_solver: str = "mumps"
     anderson_depth: int = 0        # Anderson acceleration of the multiplier iteration
-    reuse_factorization: bool = False  # (unused: the operator is fixed within a step)
+    reuse_factorization: bool = False  # GMRES on the LU (the operator is fixed within a step anyway)
 
 
 def default_augmentation(density: float, gravity: float, height: float) -> tuple[float, float, float]:
@@ -79,16 +85,20 @@ def default_augmentation(density: float, gravity: float, height: float) -> tuple
     return r, 10.0 * r / height, r / height**2
 
 
-class AugmentedLagrangianFlow(RegularizedFlow):
+class AugmentedLagrangianFlow(StokesState):
     """Spaces, state, multipliers and solvers of the augmented Lagrangian flow on one mesh.
 
-    Same interface as :class:`RegularizedFlow` (solution, iterate, u_old, mesh_velocity,
-    solve_step, accept_step, reset_iterate), plus the multipliers ``sigma`` (σ'), ``gamma``
-    (γ̇) on DG2 tensors and ``traction`` (σ_T), ``slip`` (δ) on the P2 velocity space.
+    The fields of ``models.stokes.state`` (solution, iterate, u_old, mesh_velocity), plus
+    the multipliers ``sigma`` (σ'), ``gamma`` (γ̇) on DG2 tensors and ``traction`` (σ_T),
+    ``slip`` (δ) on the P2 velocity space.
     """
 
     def __init__(self, tagged, params: FlowParameters, settings: AugmentedSettings):
-        super().__init__(tagged, params, settings)
+        super().__init__(tagged, params)
+        self.settings = settings
+        self._build_forms()
+        self.solver = DirectSolver(self.comm, settings.linear_solver, prefix="dpc_flow_",
+                                   krylov=settings.reuse_factorization)
         #: False until a pressure field exists (initial state): the first step then iterates
         #: the yield limit κ(p) to convergence instead of lagging it
         self.pressure_known = False
@@ -218,6 +228,14 @@ class AugmentedLagrangianFlow(RegularizedFlow):
             mine.x.array[:] = theirs.x.array
         self.pressure_known = other.pressure_known
 
+    def transfer(self, fields) -> float:
+        """Also the multipliers; with them, the pressure counts as known (κ(p) is lagged
+        from it, as in later steps)."""
+        outside = super().transfer(fields)
+        if any(name in fields for name in self.multiplier_functions()):
+            self.pressure_known = True
+        return outside
+
     def _state(self) -> list[np.ndarray]:
         return [f.x.array for f in self._multipliers()]
 
@@ -228,6 +246,14 @@ class AugmentedLagrangianFlow(RegularizedFlow):
     def set_multiplier_arrays(self, arrays) -> None:
         for target, values in zip(self._state(), arrays):
             target[:] = values
+
+    exported_cell_fields = ("rigid",)
+
+    def cell_field(self, name: str) -> np.ndarray:
+        """"rigid": 1 in the cells where γ̇ = 0 exactly, else 0."""
+        if name != "rigid":
+            return super().cell_field(name)
+        return self.rigid_cells().astype(float)
 
     def rigid_cells(self) -> np.ndarray:
         """Per local cell: True where γ̇ = 0 exactly at all its nodes (rigid zone)."""

@@ -6,6 +6,7 @@ velocity w, iterate k = 0, 1, …: assemble the linear Oseen/Stokes problem of
 LU, and stop when the estimated error of the iterate, ‖u^{k+1} − uᵏ‖·max(1, ρ/(1 − ρ)) with ρ
 the observed contraction of successive increments, is ≤ rtol ‖u^{k+1}‖ + atol (RMS over
 velocity dofs). Optionally the iterates are Anderson-accelerated (``solvers.anderson``).
+The fields and conditions are those of ``models.stokes.state``.
 """
 
 from __future__ import annotations
@@ -16,44 +17,22 @@ from dataclasses import dataclass
 import numpy as np
 import ufl
 from dolfinx import fem
-from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.forms.picard import picard_terms
 from dpcollapse.geometry.mesher import TaggedMesh
-from dpcollapse.rheology.base import Rheology
-from dpcollapse.scenes.base import SOLID, Boundary, BoundaryKind
+from dpcollapse.models.stokes.state import (
+    FlowParameters,
+    StepReport,
+    StokesState,
+    contraction,
+    distance_to_limit,
+)
+from dpcollapse.scenes.base import BoundaryKind
 from dpcollapse.solvers.anderson import Anderson
-from dpcollapse.solvers.assembly import LinearSystem, zero_dirichlet
+from dpcollapse.solvers.assembly import zero_dirichlet
 from dpcollapse.solvers.iterative import BlockSolver
 from dpcollapse.solvers.linear import DirectSolver
-
-
-@dataclass(frozen=True)
-class FlowParameters:
-    """Physical parameters of a scene, SI units."""
-
-    density: float            # ρ [kg/m³]
-    gravity: float            # g [m/s²]
-    bed_angle: float          # θ [rad]
-    rheology: Rheology        # the constitutive law (rheology.base)
-    boundaries: tuple[Boundary, ...] = ()  # of the scene (scenes.base): kind, normal, μ per tag
-    channel_width: float | None = None  # w: side-wall friction (2/w) μ_w p u/|u| when given
-    mu_side: float = 0.0      # μ_w
-
-    def of_kind(self, *kinds: BoundaryKind) -> list[Boundary]:
-        """The boundaries of the given kinds, in the scene's order."""
-        return [b for b in self.boundaries if b.kind in kinds]
-
-    @property
-    def periodic_slave(self) -> Boundary | None:
-        """The side tied to its periodic image (the one with a translation), if any."""
-        return next((b for b in self.of_kind(BoundaryKind.PERIODIC) if b.translation), None)
-
-    @property
-    def body_force(self) -> tuple[float, float]:
-        """f = g (sin θ, −cos θ) in slope coordinates."""
-        return (self.gravity * math.sin(self.bed_angle), -self.gravity * math.cos(self.bed_angle))
 
 
 @dataclass(frozen=True)
@@ -72,64 +51,20 @@ class PicardSettings:
     krylov_max_iterations: int = 500
 
 
-@dataclass
-class StepReport:
-    converged: bool
-    iterations: int
-    residual: float        # estimated error of the last iterate relative to the RMS velocity
-    message: str = ""
-
-
-#: Largest contraction factor used in the error estimate of the fixed point.
-CONTRACTION_CAP = 0.99
-
-
-def contraction(change: float, previous: float) -> float:
-    """ρ = ‖Δ_k‖/‖Δ_{k−1}‖ of successive increments, capped at CONTRACTION_CAP (0 without
-    a previous increment)."""
-    return min(change / previous, CONTRACTION_CAP) if previous > 0 else 0.0
-
-
-def distance_to_limit(change: float, rho: float) -> float:
-    """Estimated distance of a linearly converging iterate to its limit, Δ max(1, ρ/(1 − ρ))."""
-    return change * max(1.0, rho / (1.0 - rho))
-
-
-class RegularizedFlow:
-    """Spaces, state, forms and solvers of the regularized flow on one mesh."""
+class RegularizedFlow(StokesState):
+    """The regularized model on one mesh: its forms, its linear solver and the Picard step."""
 
     def __init__(self, tagged: TaggedMesh, params: FlowParameters, settings: PicardSettings):
-        self.tagged = tagged
-        self.mesh = mesh = tagged.mesh
-        self.params = params
+        super().__init__(tagged, params)
         self.settings = settings
-        self.comm = mesh.comm
-
-        self.W = compat.taylor_hood_space(mesh)
-        self.V, vdofs = compat.collapse(self.W.sub(0))
-        self.Q, pdofs = compat.collapse(self.W.sub(1))
-        self.velocity_dofs = np.asarray(vdofs, dtype=np.int32)
-        self.pressure_dofs = np.asarray(pdofs, dtype=np.int32)
-        self.Vw = compat.vector_space(mesh, 1)
-
         self._contraction = 0.0   # last measured contraction of the fixed point (extrapolate)
         self._history = None      # (xₙ₋₁, Δt_prev) of the last accepted step (extrapolate)
         self._pending_history = None
-        self.solution = fem.Function(self.W, name="solution")   # (u^{n+1,k+1}, p^{n+1,k+1})
-        self.iterate = fem.Function(self.W, name="iterate")     # (u^{n+1,k}, p^{n+1,k})
-        self.u_old = fem.Function(self.V, name="u_old")         # uⁿ
-        self.mesh_velocity = fem.Function(self.Vw, name="mesh_velocity")  # w
-
-        self.dt = fem.Constant(mesh, compat.ScalarType(1e-3))
         self._build_forms()
         self.solver = self._make_solver()
-        size_local = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
-        self._owned_velocity = self.velocity_dofs[self.velocity_dofs < size_local]
-        self._n_velocity = self.comm.allreduce(len(self._owned_velocity), op=MPI.SUM)
-        self._size_local = size_local
-        weights = np.zeros(size_local)
+        weights = np.zeros(self._size_local)
         weights[self._owned_velocity] = 1.0
-        self.anderson = Anderson(self.comm, settings.anderson_depth, size_local, weights)
+        self.anderson = Anderson(self.comm, settings.anderson_depth, self._size_local, weights)
 
     # ------------------------------------------------------------------ forms
     def _build_forms(self) -> None:
@@ -187,67 +122,10 @@ class RegularizedFlow:
         return BlockSolver(self.comm, self.W, self.velocity_dofs, self.pressure_dofs, mass,
                            laplacian, bcs, prefix=prefix, rtol=rtol, max_it=max_iterations)
 
-    def _make_system(self, a, L):
-        """The linear system of (a, L) with the Dirichlet conditions; periodic when the scene
-        has a periodic pair (the slave side carries the translation onto its master)."""
-        bcs = self._dirichlet_bcs()
-        slave = self.params.periodic_slave
-        if slave is not None:
-            from dpcollapse.solvers.periodic import PeriodicLinearSystem
-
-            return PeriodicLinearSystem(a, L, bcs, self.W, self.tagged.facet_tags, slave.tag,
-                                        slave.translation)
-        return LinearSystem(a, L, bcs)
-
-    def _has_tag(self, tag: int) -> bool:
-        local = bool(np.any(self.tagged.facet_tags.values == tag))
-        return self.comm.allreduce(local, op=MPI.LOR)
-
-    def _dirichlet_bcs(self):
-        """On each solid side of the scene: no slip u = 0, or no penetration u·n = 0 exactly
-        (the component along its axis-parallel normal: u_y = 0 on the bed y = 0, u_x = 0 on
-        the wall x = 0)."""
-        velocity = self.W.sub(0)
-        ft = self.tagged.facet_tags
-        return [zero_dirichlet(velocity if b.kind == BoundaryKind.NO_SLIP else velocity.sub(b.normal_axis()),
-                               ft, b.tag) for b in self.params.of_kind(*SOLID)]
-
-    def set_velocity(self, profile) -> None:
-        """Set uⁿ and the first iterate to ``profile(x) -> (2, n)`` (initial condition)."""
-        self.u_old.interpolate(profile)
-        self.iterate.x.array[self.velocity_dofs] = self.u_old.x.array
-        self.solution.x.array[:] = self.iterate.x.array
-
-    # ------------------------------------------------------------------ state access
-    def velocity(self, which: fem.Function | None = None):
-        return (which or self.solution).sub(0)
-
-    def velocity_values(self, which: fem.Function | None = None) -> np.ndarray:
-        """Owned velocity dof values (flat) of ``which`` (default: the solution)."""
-        return (which or self.solution).x.array[self._owned_velocity]
-
-    def rms(self, values: np.ndarray) -> float:
-        total = self.comm.allreduce(float(np.dot(values, values)), op=MPI.SUM)
-        return math.sqrt(total / max(self._n_velocity, 1))
-
     def accept_step(self) -> None:
-        """uⁿ ← u^{n+1}: the solution becomes the old state and the first iterate."""
-        self.iterate.x.array[:] = self.solution.x.array
-        self.u_old.x.array[:] = self.solution.x.array[self.velocity_dofs]
+        """uⁿ ← u^{n+1}, and the step's start becomes the extrapolation history."""
+        super().accept_step()
         self._history = self._pending_history
-
-    def multiplier_functions(self) -> dict:
-        """Fields besides (u, p) that a remesh or checkpoint must carry: none here."""
-        return {}
-
-    def copy_state_from(self, other: RegularizedFlow) -> None:
-        """Take the state of a flow on the same mesh with the same dofs (new facet tags)."""
-        for name in ("solution", "iterate", "u_old", "mesh_velocity"):
-            getattr(self, name).x.array[:] = getattr(other, name).x.array
-
-    def reset_iterate(self) -> None:
-        """Start the next step's fixed point from the last accepted state."""
-        self.solution.x.array[:] = self.iterate.x.array
 
     # ------------------------------------------------------------------ the step
     def solve_step(self, dt: float) -> StepReport:
@@ -312,7 +190,3 @@ class RegularizedFlow:
             self.iterate.x.scatter_forward()
         self.iterate.x.array[:] = start
         return StepReport(False, s.max_iterations, residual, "iteration cap reached")
-
-    def destroy(self) -> None:
-        self.system.destroy()
-        self.solver.destroy()
