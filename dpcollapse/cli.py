@@ -118,9 +118,7 @@ def check(config: Path, overrides: tuple[str, ...]) -> int:
 def summary(cfg: Config, source: Path | str | None = None) -> str:
     """A few lines describing a valid config (derived numbers with units)."""
     g, t, m = cfg.geometry, cfg.time, cfg.material
-    shape = (f"layer: thickness {g.height:g} m, period {g.base_length:g} m" if g.shape == "layer"
-             else f"mass: height {g.height:g} m, base {g.base_length:g} m, "
-                  f"top length {g.top_length:.4f} m, area {g.area:.4f} m^2")
+    shape = g.describe()
     lines = [
         f"{source}: valid" if source else "config: valid",
         f"  mu_s = {m.mu_s:.4f}  mu_b = {cfg.boundary.mu_bed:.4f}  "
