@@ -130,7 +130,7 @@ def summary(cfg: Config, source: Path | str | None = None) -> str:
         f"  output: {cfg.output.directory}",
     ]
     if cfg.numerics.method == "augmented_lagrangian":
-        from dpcollapse.discretization import augmented_settings
+        from dpcollapse.models.stokes.augmented import augmented_settings
 
         a = augmented_settings(cfg)
         lines.insert(2, f"  augmented Lagrangian: r = {a.augmentation:.4g} Pa s, r_f = "

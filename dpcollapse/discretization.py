@@ -22,8 +22,9 @@ from dpcollapse.rheology.base import Rheology
 from dpcollapse.rheology.drucker_prager import DruckerPrager
 from dpcollapse.rheology.mu_i import MuI
 from dpcollapse.scenes.registry import scene as make_scene
-from dpcollapse.models.stokes.augmented import AugmentedLagrangianFlow, AugmentedSettings, default_augmentation
-from dpcollapse.models.stokes.regularized import PicardSettings, RegularizedFlow
+from dpcollapse.models.registry import model_class
+from dpcollapse.models.stokes.augmented import augmented_settings  # noqa: F401  (callers import it here)
+from dpcollapse.models.stokes.regularized import picard_settings  # noqa: F401  (callers import it here)
 from dpcollapse.models.stokes.state import FlowParameters
 
 #: Speed above which a point counts as flowing (seed 000) [m/s].
@@ -56,38 +57,15 @@ def initial_velocity(cfg: Config):
     return make_scene(cfg).initial_velocity()
 
 
-def picard_settings(cfg: Config) -> PicardSettings:
-    n = cfg.numerics
-    return PicardSettings(n.epsilon, n.epsilon_friction, n.nonlinear_rtol, n.nonlinear_atol,
-                          n.max_iterations, n.linear_solver, n.anderson_depth,
-                          n.reuse_factorization, n.quadrature_degree, n.extrapolate,
-                          n.krylov_rtol, n.krylov_max_iterations)
-
-
 def direct_solver(cfg: Config) -> str:
     """The LU package of the small mesh-motion solves: mumps when the flow is iterative."""
     n = cfg.numerics
     return "mumps" if n.linear_solver == "iterative" else n.linear_solver
 
 
-def augmented_settings(cfg: Config) -> AugmentedSettings:
-    """Settings of the augmented Lagrangian; r, r_f default to 2ρ√g h0^{3/2} and 10 r/h0."""
-    n, m, h = cfg.numerics, cfg.material, cfg.geometry.height
-    r, r_f, r_w = default_augmentation(m.density, m.gravity, h)
-    if n.augmentation is not None:
-        r, r_w = n.augmentation, n.augmentation / h**2
-        r_f = 10.0 * n.augmentation / h
-    if n.augmentation_friction is not None:
-        r_f = n.augmentation_friction
-    return AugmentedSettings(r, r_f, r_w, n.nonlinear_rtol, n.nonlinear_atol, n.augmented_max_iterations,
-                             n.epsilon, n.epsilon_friction, n.linear_solver, n.anderson_depth)
-
-
 def make_flow(tagged: TaggedMesh, cfg: Config, scene=None):
-    """The flow solver of ``numerics.method`` on one mesh."""
-    if cfg.numerics.method == "augmented_lagrangian":
-        return AugmentedLagrangianFlow(tagged, flow_parameters(cfg, scene), augmented_settings(cfg))
-    return RegularizedFlow(tagged, flow_parameters(cfg, scene), picard_settings(cfg))
+    """The model of ``numerics.method`` on one mesh (``models.registry``)."""
+    return model_class(cfg.numerics.method).from_config(tagged, cfg, flow_parameters(cfg, scene))
 
 
 class Discretization:

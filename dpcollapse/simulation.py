@@ -59,8 +59,6 @@ FEW_ITERATIONS = 3
 #: ... and the shrink factor after a fixed point of more than this many iterations.
 STEP_SHRINK = 0.7
 MANY_ITERATIONS = 12
-#: Augmented Lagrangian: both iteration thresholds are multiplied by this.
-AL_ITERATION_SCALE = 5
 
 
 class Progress:
@@ -287,7 +285,7 @@ class Simulation:
         t = self.cfg.time
         # an augmented Lagrangian iteration is one back-substitution, not a factorization:
         # measured 3 ms against 15 ms per Picard iteration on the 2 cm collapse
-        scale = AL_ITERATION_SCALE if self.cfg.numerics.method == "augmented_lagrangian" else 1
+        scale = self.disc.flow.iteration_scale
         if iterations <= FEW_ITERATIONS * scale:
             dt *= STEP_GROWTH
         elif iterations > MANY_ITERATIONS * scale:

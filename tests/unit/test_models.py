@@ -15,6 +15,15 @@ from dpcollapse.scenes.registry import build_mesh
 from tests.helpers import ROOT
 
 
+def test_registry_finds_the_model_of_each_method():
+    from dpcollapse.models.registry import model_classes
+
+    classes = model_classes()
+    assert classes["regularized"] is RegularizedFlow
+    assert classes["augmented_lagrangian"] is AugmentedLagrangianFlow
+    assert (RegularizedFlow.iteration_scale, AugmentedLagrangianFlow.iteration_scale) == (1, 5)
+
+
 def test_models_do_not_inherit_each_other():
     assert not issubclass(AugmentedLagrangianFlow, RegularizedFlow)
     assert not issubclass(RegularizedFlow, AugmentedLagrangianFlow)

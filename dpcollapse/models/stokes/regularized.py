@@ -51,8 +51,24 @@ class PicardSettings:
     krylov_max_iterations: int = 500
 
 
+def picard_settings(cfg) -> PicardSettings:
+    """The fixed-point settings of ``numerics``."""
+    n = cfg.numerics
+    return PicardSettings(n.epsilon, n.epsilon_friction, n.nonlinear_rtol, n.nonlinear_atol,
+                          n.max_iterations, n.linear_solver, n.anderson_depth,
+                          n.reuse_factorization, n.quadrature_degree, n.extrapolate,
+                          n.krylov_rtol, n.krylov_max_iterations)
+
+
 class RegularizedFlow(StokesState):
     """The regularized model on one mesh: its forms, its linear solver and the Picard step."""
+
+    #: its ``numerics.method``
+    method = "regularized"
+
+    @classmethod
+    def from_config(cls, tagged: TaggedMesh, cfg, params: FlowParameters) -> RegularizedFlow:
+        return cls(tagged, params, picard_settings(cfg))
 
     def __init__(self, tagged: TaggedMesh, params: FlowParameters, settings: PicardSettings):
         super().__init__(tagged, params)

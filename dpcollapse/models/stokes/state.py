@@ -158,6 +158,8 @@ class StokesState:
         self.iterate.x.array[:] = self.solution.x.array
         self.u_old.x.array[:] = self.solution.x.array[self.velocity_dofs]
 
+    #: the adaptive step's iteration thresholds are multiplied by this (``simulation``)
+    iteration_scale = 1
     #: names of the per-cell fields the model exports (``cell_field``)
     exported_cell_fields: tuple[str, ...] = ()
 
