@@ -13,7 +13,7 @@ from mpi4py import MPI
 from dpcollapse.config import load_config
 from dpcollapse.io.diagnostics import read_diagnostics
 from dpcollapse.simulation import Simulation
-from tests.helpers import ROOT, clean_env, dpcollapse_cmd, paraview_summaries, run_cli
+from tests.helpers import ROOT, clean_env, dpcollapse_cmd, paraview_summaries, run_cli, simulation
 
 #: A coarse rigid-bed collapse that reaches its first remesh (≈ t = 0.096 s at 2 cm).
 SHORT = ["geometry.mesh_size=0.02", "time.end_time=0.12", "time.output_every=30",
@@ -21,9 +21,7 @@ SHORT = ["geometry.mesh_size=0.02", "time.end_time=0.12", "time.output_every=30"
 
 
 def _run(config, overrides, run_dir, comm=MPI.COMM_WORLD, resume=False):
-    cfg = load_config(ROOT / "configs" / config, overrides)
-    sim = Simulation(cfg, run_dir, quiet=True, resume=resume, comm=comm)
-    summary = sim.run()
+    summary = simulation(config, overrides, run_dir, comm=comm, resume=resume).run()
     return summary, read_diagnostics(run_dir / "diagnostics.csv") if comm.rank == 0 else None
 
 

@@ -7,8 +7,7 @@ import pytest
 from mpi4py import MPI
 
 from dpcollapse.config import load_config
-from dpcollapse.simulation import Simulation
-from tests.helpers import ROOT
+from tests.helpers import ROOT, simulation
 
 CONFIGS = sorted((ROOT / "configs").glob("*.yaml"))
 
@@ -23,8 +22,7 @@ def test_example_runs_shortened(path, tmp_path):
     over = [f"time.end_time={3 * cfg.time.dt!r}", "time.output_every=2", "time.checkpoint_every=2"]
     if cfg.geometry.shape != "layer":
         over.append(f"geometry.mesh_size={max(cfg.geometry.mesh_size, 0.03)}")
-    cfg = load_config(path, over)
-    summary = Simulation(cfg, tmp_path, quiet=True, comm=MPI.COMM_SELF).run()
+    summary = simulation(path, over, tmp_path, comm=MPI.COMM_SELF).run()
     assert summary["status"] == "end_time" and summary["steps"] >= 3
     assert abs(summary["area_drift"]) < 1e-3
     for name in ("config.yaml", "diagnostics.csv", "run.json", "checkpoint.npz", "solution.xdmf"):

@@ -16,8 +16,7 @@ from dpcollapse.geometry.mesher import BED, SURFACE, WALL
 from dpcollapse.scenes.base import BoundaryKind
 from dpcollapse.scenes.column import ColumnScene
 from dpcollapse.scenes.registry import scene
-from dpcollapse.simulation import Simulation
-from tests.helpers import ROOT
+from tests.helpers import ROOT, simulation
 
 COLUMN = ROOT / "configs/column.yaml"
 
@@ -73,9 +72,9 @@ def test_column_collapses_and_slides_along_the_symmetry_wall(tmp_path):
     """configs/column.yaml shortened (2 cm, 30 steps): the column spreads beyond L0 with its
     area kept; on the symmetry wall u_x = 0 exactly while the mass slides down it (no
     friction: u_y < 0 there)."""
-    cfg = load_config(COLUMN, ["geometry.mesh_size=0.02", "time.end_time=0.03",
-                               "time.output_every=1000", "time.checkpoint_every=1000"])
-    sim = Simulation(cfg, tmp_path, quiet=True, comm=MPI.COMM_SELF)
+    sim = simulation(COLUMN, ["geometry.mesh_size=0.02", "time.end_time=0.03",
+                              "time.output_every=1000", "time.checkpoint_every=1000"],
+                     tmp_path, comm=MPI.COMM_SELF)
     summary = sim.run()
     assert summary["status"] == "end_time" and summary["steps"] >= 30
     assert summary["front"] > 0.07 + 1e-3

@@ -7,11 +7,9 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
-from dpcollapse.config import load_config
 from dpcollapse.io.diagnostics import read_diagnostics
 from dpcollapse.loop import Events, LoopState
-from dpcollapse.simulation import Simulation
-from tests.helpers import ROOT
+from tests.helpers import ROOT, simulation
 
 #: A checkpoint written by the code before the redesign (commit d1fd579, dict state) at
 #: step 20 of this run, with its diagnostics.
@@ -39,9 +37,9 @@ def test_resume_from_an_old_checkpoint_continues_the_run(tmp_path):
     this code (steps 21–30)."""
     run = tmp_path / "old"
     shutil.copytree(OLD_RUN, run)
-    cfg = load_config(ROOT / "configs/rigid.yaml", OVERRIDES + ["time.end_time=0.03"])
-    Simulation(cfg, run, quiet=True, resume=True, comm=MPI.COMM_SELF).run()
-    Simulation(cfg, tmp_path / "full", quiet=True, comm=MPI.COMM_SELF).run()
+    over = OVERRIDES + ["time.end_time=0.03"]
+    simulation("rigid.yaml", over, run, comm=MPI.COMM_SELF, resume=True).run()
+    simulation("rigid.yaml", over, tmp_path / "full", comm=MPI.COMM_SELF).run()
     resumed, full = read_diagnostics(run / "diagnostics.csv"), read_diagnostics(tmp_path / "full" / "diagnostics.csv")
     assert resumed["step"] == full["step"] == list(range(1, 31))
     for key in ("t", "front", "max_height", "kinetic_energy", "max_speed"):
@@ -57,10 +55,9 @@ def test_events_in_order_and_a_subscriber_stops_the_run(tmp_path):
     events.subscribe("output", lambda sim, t: seen.append(("output", round(t, 9))))
     events.subscribe("remesh", lambda sim, info: seen.append(("remesh", info["reason"][:9])))
     events.subscribe("step_accepted", lambda sim, row: seen.append(("step", row["step"])) or row["step"] == 12)
-    cfg = load_config(ROOT / "configs/rigid.yaml", ["geometry.mesh_size=0.04", "time.end_time=0.05",
-                                                     "numerics.remesh_min_angle=59",
-                                                     "time.output_every=10"])
-    summary = Simulation(cfg, tmp_path, quiet=True, comm=MPI.COMM_SELF, events=events).run()
+    summary = simulation("rigid.yaml", ["geometry.mesh_size=0.04", "time.end_time=0.05",
+                                        "numerics.remesh_min_angle=59", "time.output_every=10"],
+                         tmp_path, comm=MPI.COMM_SELF, events=events).run()
     assert summary["status"] == "stopped_by_observer" and summary["steps"] == 12
     assert seen[0] == ("discretization", 0) and seen[1] == ("output", 0.0)
     assert [e for e in seen if e[0] == "step"] == [("step", k) for k in range(1, 13)]
