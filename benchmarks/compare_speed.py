@@ -18,6 +18,7 @@ import json
 import os
 import resource
 import shutil
+import signal
 import statistics
 import subprocess
 import sys
@@ -63,6 +64,9 @@ def main(argv=None) -> int:
                     help="config override for every timed run (e.g. time.end_time=0.3)")
     ap.add_argument("--python", default=sys.executable)
     args = ap.parse_args(argv)
+    # SIGTERM (and SIGINT, which a background job ignores) end the script through its
+    # cleanup: the temporary worktrees are removed
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
 
     tmp = Path(tempfile.mkdtemp(prefix="compare_speed_"))
     checkouts = {}
