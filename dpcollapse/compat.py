@@ -209,7 +209,7 @@ def create_vector_on_map(index_map, block_size: int) -> PETSc.Vec:
     if DOLFINX_VERSION >= (0, 10, 0):
         from dolfinx.la.petsc import create_vector as _create
 
-        return _create(index_map, block_size)
+        return _create([(index_map, block_size)])
     if DOLFINX_VERSION >= (0, 7, 0):
         from dolfinx.la import create_petsc_vector
 
