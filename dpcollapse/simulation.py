@@ -1,14 +1,17 @@
-"""The time loop of a collapse: ALE step, Picard solve, remesh, diagnostics, output.
+"""The time loop: domain step, model step, remesh, diagnostics, output, events.
 
-Each step n → n+1 (seed 000's update algorithm):
-1. if the mesh is too distorted (smallest angle below ``numerics.remesh_min_angle``),
-   remesh from the current boundary and carry uⁿ, pⁿ across;
-2. compute the mesh velocity wⁿ from uⁿ; limit Δt so that no cell loses more than half
-   its area and no free-surface node more than half its height above the bed; with
+Each step n → n+1 (seed 000's update algorithm), on a fixed or moving domain
+(``domain``) with the model of ``numerics.method`` (``models``):
+1. if the domain asks for it (moving: smallest angle below ``numerics.remesh_min_angle``),
+   remesh from the current boundary and carry the model's state across (snapshot/transfer);
+2. the domain limits Δt (moving: the mesh velocity wⁿ from uⁿ; no cell loses more than
+   half its area and no free-surface node more than half its height above the bed); with
    ``time.adaptive`` also Δt ≤ cfl·min_K h_K/max_K |uⁿ| (the Courant bound);
-3. move the nodes by Δt·wⁿ, solve the Picard fixed point for (u^{n+1}, p^{n+1});
+3. the domain moves by Δt·wⁿ, the model solves its step for (u^{n+1}, p^{n+1});
    if it fails, undo the move and halve Δt down to ``time.dt_min``;
 4. record diagnostics; write XDMF/checkpoint every N steps; stop at rest or end time.
+The state of the loop is a ``loop.LoopState``; subscribers of ``loop.Events`` see new
+discretizations, accepted steps, outputs, remeshes and failures.
 
 Step size: fixed ``time.dt`` (a step cut by a failure or the mesh motion recovers ×1.5 per
 step), or with ``time.adaptive`` the next target Δt ← ×STEP_GROWTH after a fixed point of

@@ -131,7 +131,7 @@ def retag_landed(tagged):
     nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
     on_bed = np.all(mesh.geometry.x[nodes, 1] == 0.0, axis=1)
     values = np.where((ft.values == SURFACE) & on_bed, BED, ft.values)
-    return TaggedMesh(mesh, compat.meshtags(mesh, 1, ft.indices, values))
+    return TaggedMesh(mesh, compat.meshtags(mesh, 1, ft.indices, values), tagged.cell_tags)
 
 
 def cell_orientation(mesh) -> np.ndarray:

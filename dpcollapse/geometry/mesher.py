@@ -32,8 +32,8 @@ BOUNDARY_GRADING = 2.0
 @dataclass
 class TaggedMesh:
     """A DOLFINx mesh with its boundary facets tagged (BED, WALL, SURFACE, LEFT, RIGHT) and
-    its cells tagged by material region (DOMAIN for the granular mass; None after a remesh,
-    which keeps a single region)."""
+    its cells tagged by material region (DOMAIN for the granular mass: the initial mesh, a
+    remesh and a landing rebuild keep them; a mesh read back from a checkpoint has None)."""
 
     mesh: object
     facet_tags: object

@@ -52,6 +52,8 @@ def test_events_in_order_and_a_subscriber_stops_the_run(tmp_path):
     seen = []
     events = Events()
     events.subscribe("discretization", lambda sim, disc: seen.append(("discretization", sim.state.step)))
+    tagged_cells = []
+    events.subscribe("discretization", lambda sim, disc: tagged_cells.append(disc.tagged.cell_tags is not None))
     events.subscribe("output", lambda sim, t: seen.append(("output", round(t, 9))))
     events.subscribe("remesh", lambda sim, info: seen.append(("remesh", info["reason"][:9])))
     events.subscribe("step_accepted", lambda sim, row: seen.append(("step", row["step"])) or row["step"] == 12)
@@ -65,8 +67,30 @@ def test_events_in_order_and_a_subscriber_stops_the_run(tmp_path):
     assert len(remeshes) == summary["remeshes"] >= 1
     assert all(seen[i - 1][0] == "discretization" for i in remeshes)   # the new mesh, then the event
     assert ("output", 0.01) in seen and seen[-1] == ("output", 0.012)
+    assert len(tagged_cells) >= 2 and all(tagged_cells)   # a remesh keeps the cell tags
 
 
 def test_unknown_event_is_refused():
     with pytest.raises(ValueError, match="step_acepted"):
         Events().subscribe("step_acepted", print)
+
+
+def test_domains_implement_the_protocol():
+    """Both domains answer every question of domain.base.Domain; the fixed one never limits
+    the step nor moves."""
+    import math
+
+    from dpcollapse.config import load_config
+    from dpcollapse.domain.base import Domain, make_domain
+    from dpcollapse.domain.fixed import FixedDomain
+    from dpcollapse.domain.moving import MovingDomain
+
+    names = [n for n in vars(Domain) if not n.startswith("_")] + list(Domain.__annotations__)
+    for cls in (FixedDomain, MovingDomain):
+        assert all(hasattr(cls, n) or n == "solves" for n in names), cls
+    fixed = make_domain(load_config(ROOT / "configs/plug.yaml"))
+    assert isinstance(fixed, FixedDomain) and not fixed.moving
+    assert fixed.limit_step(None, 1e-3) == math.inf and fixed.move(None, 1e-3) == (None, 0)
+    assert fixed.needs_remesh(None, LoopState()) is None
+    moving = make_domain(load_config(ROOT / "configs/rigid.yaml"))
+    assert isinstance(moving, MovingDomain) and moving.moving and moving.mesh_size == 0.01
