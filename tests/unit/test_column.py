@@ -86,3 +86,20 @@ def test_column_collapses_and_slides_along_the_symmetry_wall(tmp_path):
     assert on_wall.sum() >= 5
     assert np.abs(u[on_wall, 0]).max() == 0.0
     assert u[on_wall, 1].min() < -0.01
+
+
+@pytest.mark.mpi
+def test_column_on_all_ranks_matches_serial(shared_tmp, comm):
+    """The shortened column collapse on all ranks gives the serial diagnostics (rel. 1e-6)."""
+    from dpcollapse.io.diagnostics import read_diagnostics
+
+    over = ["geometry.mesh_size=0.02", "time.end_time=0.02", "time.output_every=1000",
+            "time.checkpoint_every=1000"]
+    simulation(COLUMN, over, shared_tmp / "parallel", comm=comm).run()
+    if comm.rank == 0:
+        simulation(COLUMN, over, shared_tmp / "serial", comm=MPI.COMM_SELF).run()
+        par = read_diagnostics(shared_tmp / "parallel" / "diagnostics.csv")
+        ser = read_diagnostics(shared_tmp / "serial" / "diagnostics.csv")
+        assert par["iterations"] == ser["iterations"]
+        for key in ("t", "front", "max_height", "kinetic_energy", "area", "max_speed"):
+            np.testing.assert_allclose(par[key], ser[key], rtol=1e-6, atol=1e-12, err_msg=key)
