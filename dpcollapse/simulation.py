@@ -41,11 +41,10 @@ from dpcollapse.domain.base import make_domain
 from dpcollapse.errors import ConfigError, ConvergenceError, Interrupted, MeshError
 from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.scenes.registry import build_mesh
-from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
+from dpcollapse.io.checkpoint import load_checkpoint
 from dpcollapse.io.diagnostics import DiagnosticsWriter
 from dpcollapse.io.runinfo import RunInfo
-from dpcollapse.io.xdmf import XDMFTimeSeries
-from dpcollapse.io.vtx import VTXTimeSeries
+from dpcollapse.io.exports import CheckpointExport, FieldExport
 from dpcollapse.loop import Events, LoopState
 from dpcollapse.discretization import (Discretization, flow_parameters, initial_velocity,  # noqa: F401
                                        picard_settings, rheology)
@@ -146,13 +145,10 @@ class Simulation:
                 m0["area"], m0["gravity_moment"], m0["kinetic_energy"])
         if comm.rank == 0:
             save_config(cfg, self.run_dir / "config.yaml")
-        fmt = cfg.output.format
-        self.xdmf = XDMFTimeSeries(self.run_dir, comm) if fmt != "vtx" else None
-        self.vtx = VTXTimeSeries(self.run_dir, comm) if fmt != "xdmf" else None
+        self.field_export = FieldExport(self.run_dir, comm, cfg.output.format, cfg.time.output_every)
+        self.checkpoint_export = CheckpointExport(self.checkpoint_path, cfg.time.checkpoint_every)
         if resume:
-            for series in (self.xdmf, self.vtx):
-                if series is not None:
-                    series.truncate_after(self.state.t)
+            self.field_export.truncate_after(self.state.t)
         self.diagnostics = DiagnosticsWriter(self.run_dir / "diagnostics.csv", comm,
                                              resume_after=self.state.t if resume else None)
         self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg))
@@ -180,16 +176,10 @@ class Simulation:
 
     def _output(self) -> None:
         t = self.state.t
-        if self.xdmf is not None and self.xdmf.steps and self.xdmf.steps[-1][1] >= t:
-            return  # already written at this time
-        if self.vtx is not None and self.vtx.steps and self.vtx.steps[-1] >= t:
+        if self.field_export.written(t):
             return
         t0 = time.perf_counter()
-        functions = self.disc.output_functions()
-        if self.xdmf is not None:
-            self.xdmf.write(t, self.disc.mesh, functions)
-        if self.vtx is not None:
-            self.vtx.write(t, self.disc.mesh, functions)
+        self.field_export.write(t, self.disc.mesh, self.disc.output_functions())
         self.timings["output"] += time.perf_counter() - t0
         self.events.emit("output", self, t)
 
@@ -198,9 +188,7 @@ class Simulation:
             return
         self.state.checkpoint_step = self.state.step
         t0 = time.perf_counter()
-        fields = self.disc.flow.snapshot()
-        u, p = fields.pop("velocity"), fields.pop("pressure")
-        save_checkpoint(self.checkpoint_path, self.disc.tagged, u, p, self.state.to_dict(), fields)
+        self.checkpoint_export.write(self.disc.tagged, self.disc.flow.snapshot(), self.state.to_dict())
         self.timings["output"] += time.perf_counter() - t0
 
     def _remesh(self, reason: str) -> None:
@@ -388,9 +376,9 @@ class Simulation:
                 resting = m["max_speed"] < cfg.time.rest_speed
                 st.rest_time = st.rest_time + dt if resting else 0.0
                 at_rest = resting and st.rest_time >= cfg.time.rest_duration
-                if st.step % cfg.time.output_every == 0 or at_rest or stop:
+                if self.field_export.due(st.step) or at_rest or stop:
                     self._output()
-                if st.step % cfg.time.checkpoint_every == 0 or at_rest or stop:
+                if self.checkpoint_export.due(st.step) or at_rest or stop:
                     self._checkpoint()
                 if at_rest or stop:
                     st.status = "at_rest" if at_rest else "stopped_by_observer"
@@ -413,8 +401,7 @@ class Simulation:
 
     def _finish(self, status: str, progress: Progress, error: str | None = None) -> dict:
         progress.close()
-        if self.vtx is not None:
-            self.vtx.close()
+        self.field_export.close()
         self.diagnostics.close()
         its = self.iteration_counts
         m = self.disc.measures()
