@@ -15,16 +15,15 @@ where "one linear solve" is one assembly (matrix + vector) + numeric factorizati
 the flow system, the median of ``REPEATS`` after a warm-up, on a separate discretization of
 the case's initial mesh. 1.0 is the floor (one Picard iteration per step and nothing else).
 
-How the split is measured without touching the solver: every flow discretization the run
-creates (the initial one, after each remesh, after a nose lands on the bed) is instrumented
-when it is assigned to ``sim.disc`` (:class:`_BenchSimulation`, a property on a subclass),
-by wrapping the *instance* attributes ``flow.system.assemble_matrix``/``assemble_vector``,
-``flow.solver.set_operator`` and ``flow.solver.solve``. PETSc factorizes inside the first
-``KSPSolve`` after ``KSPSetOperators``; the wrapper of ``set_operator`` therefore calls
-``ksp.setUp()`` itself (PCSetUp: the numeric factorization, and the symbolic one on a new
-pattern) and times it. The following ``KSPSolve`` sees the PC up to date with the matrix
-state and only does the triangular solves; results are bit-for-bit those of the
-uninstrumented run (``tests/test_bench.py`` checks it).
+How the split is measured: the flow systems and solvers keep their own times and counts
+(``solvers.assembly``: assembly; ``solvers.linear``: factorization and solve). PETSc
+factorizes inside the first ``KSPSolve`` after ``KSPSetOperators``; ``DirectSolver`` calls
+``ksp.setUp()`` itself before the first solve after a new operator (PCSetUp: the numeric
+factorization, and the symbolic one on a new pattern) and times it apart from the triangular
+solves. :class:`Instrument` subscribes to the run's ``discretization`` event (every flow
+discretization the run creates: the initial one, after each remesh, after a nose lands on
+the bed) and sums their counters; nothing is wrapped, and a tracked run gives the
+diagnostics of an untracked one bit for bit (``tests/test_bench.py`` checks it).
 
 Peak memory: ``ru_maxrss`` after resetting the high-water mark (``/proc/self/clear_refs``,
 Linux ≥ 4.0) before each case, max over ranks; where the reset is refused it is the peak of
