@@ -1,0 +1,26 @@
+"""Depth-averaged Savage–Hutter / Saint-Venant model of a granular layer on a plane slope.
+
+Pure NumPy, one space dimension (x along the slope, thickness h measured normal to it)::
+
+    ∂t h + ∂x(h ū) = 0
+    ∂t(h ū) + ∂x(α h ū² + g cosθ h²/2) = g h (sinθ − μ_eff sign(ū) cosθ)
+
+with μ_eff the basal friction (Coulomb or μ(Ī), ``friction``) plus the optional side-wall term
+μ_w h/w. ``scheme`` holds the finite-volume step (HLL fluxes, friction that locks interfaces at
+rest, implicit Coulomb stopping), ``solver`` the time loop and outputs, ``exact`` the analytic
+solutions used for verification, ``validate`` the convergence study (``python -m
+dpcollapse.models.savage_hutter.validate``). See docs/savage_hutter.md.
+"""
+
+from dpcollapse.models.savage_hutter.friction import CoulombFriction, MuIFriction, SideWallFriction
+from dpcollapse.models.savage_hutter.solver import Grid, Result, SavageHutter, simulate
+
+__all__ = [
+           "CoulombFriction",
+           "Grid",
+           "MuIFriction",
+           "Result",
+           "SavageHutter",
+           "SideWallFriction",
+           "simulate",
+]
