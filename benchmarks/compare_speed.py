@@ -7,7 +7,8 @@ each round runs ``dpcollapse run configs/rigid.yaml`` once with the old and once
 checkout (the order alternates between rounds, so a slow drift of the machine's load hits
 both alike). Before the rounds, each checkout runs a short warm-up (JIT compilation into the
 shared ``$XDG_CACHE_HOME``), which is not timed. Reported per run: wall time, CPU time of the
-child (user + system) and the number of steps; then the medians and new/old ratios. The
+child (user + system) and the number of steps; then the medians, the new/old ratio of
+each round and its median over rounds (robust to a load that drifts between rounds). The
 runs must agree in steps and final front, or the comparison is refused.
 """
 
@@ -95,8 +96,12 @@ def main(argv=None) -> int:
                for label, rs in results.items()}
         print(f"load average at the end: {os.getloadavg()}")
         for key in ("wall", "cpu"):
-            print(f"median {key}: old {med['old'][key]:.2f} s, new {med['new'][key]:.2f} s, "
-                  f"new/old {med['new'][key] / med['old'][key]:.3f}")
+            # the ratio of the two runs of each round (back to back, so under about the same
+            # load), then its median over rounds: robust to a load that drifts between rounds
+            paired = [n[key] / o[key] for o, n in zip(results["old"], results["new"])]
+            print(f"{key}: median old {med['old'][key]:.2f} s, new {med['new'][key]:.2f} s; "
+                  f"new/old per round {', '.join(f'{r:.3f}' for r in paired)}, "
+                  f"median {statistics.median(paired):.3f}")
         return 0
     finally:
         for path in checkouts.values():
