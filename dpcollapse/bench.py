@@ -15,16 +15,15 @@ where "one linear solve" is one assembly (matrix + vector) + numeric factorizati
 the flow system, the median of ``REPEATS`` after a warm-up, on a separate discretization of
 the case's initial mesh. 1.0 is the floor (one Picard iteration per step and nothing else).
 
-How the split is measured without touching the solver: every flow discretization the run
-creates (the initial one, after each remesh, after a nose lands on the bed) is instrumented
-when it is assigned to ``sim.disc`` (:class:`_BenchSimulation`, a property on a subclass),
-by wrapping the *instance* attributes ``flow.system.assemble_matrix``/``assemble_vector``,
-``flow.solver.set_operator`` and ``flow.solver.solve``. PETSc factorizes inside the first
-``KSPSolve`` after ``KSPSetOperators``; the wrapper of ``set_operator`` therefore calls
-``ksp.setUp()`` itself (PCSetUp: the numeric factorization, and the symbolic one on a new
-pattern) and times it. The following ``KSPSolve`` sees the PC up to date with the matrix
-state and only does the triangular solves; results are bit-for-bit those of the
-uninstrumented run (``tests/test_bench.py`` checks it).
+How the split is measured: the flow systems and solvers keep their own times and counts
+(``solvers.assembly``: assembly; ``solvers.linear``: factorization and solve). PETSc
+factorizes inside the first ``KSPSolve`` after ``KSPSetOperators``; ``DirectSolver`` calls
+``ksp.setUp()`` itself before the first solve after a new operator (PCSetUp: the numeric
+factorization, and the symbolic one on a new pattern) and times it apart from the triangular
+solves. :class:`Instrument` subscribes to the run's ``discretization`` event (every flow
+discretization the run creates: the initial one, after each remesh, after a nose lands on
+the bed) and sums their counters; nothing is wrapped, and a tracked run gives the
+diagnostics of an untracked one bit for bit (``tests/test_bench.py`` checks it).
 
 Peak memory: ``ru_maxrss`` after resetting the high-water mark (``/proc/self/clear_refs``,
 Linux ≥ 4.0) before each case, max over ranks; where the reset is refused it is the peak of
@@ -42,7 +41,6 @@ exponent in log-log; the same for the time of one linear solve.
 from __future__ import annotations
 
 import ctypes
-import functools
 import gc
 import json
 import logging
@@ -141,85 +139,53 @@ def parse_cases(text: str | None, quick: bool) -> list[str]:
 
 # ---------------------------------------------------------------------- instrumentation
 class Instrument:
-    """Accumulates assembly / factorization / solve time of the flow systems it wraps."""
+    """Assembly / factorization / solve time and counts of the flow systems of a run, summed
+    over every discretization it is shown (``track``, a subscriber of the run's
+    ``discretization`` event): the systems and solvers keep these counts themselves
+    (``solvers.assembly``, ``solvers.linear``), nothing is wrapped."""
 
-    def __init__(self, split_factorization: bool = True):
-        self.split_factorization = split_factorization
-        self.times = {"assembly": 0.0, "factorization": 0.0, "solve": 0.0}
-        self.linear_solves = 0
-        self.factorizations = 0
-        self.wrapped = 0
+    def __init__(self):
+        self.flows: list = []
 
-    def wrap(self, disc) -> None:
-        """Wrap the instance methods of ``disc.flow``'s system and solver (once per flow)."""
-        flow = getattr(disc, "flow", None)
-        if flow is None or getattr(flow, "_bench_instrument", None) is self:
-            return
-        flow._bench_instrument = self
-        system, solver = flow.system, flow.solver
-        times, clock = self.times, time.perf_counter
-        assemble_matrix, assemble_vector = system.assemble_matrix, system.assemble_vector
-        set_operator, solve = solver.set_operator, solver.solve
+    def track(self, sim, disc) -> None:
+        """Event ``discretization``: count the flow of a new discretization (once)."""
+        if all(flow is not disc.flow for flow in self.flows):
+            self.flows.append(disc.flow)
 
-        def timed(fn, bucket):
-            """``fn`` with its wall time added to ``times[bucket]``."""
-            def call(*args, **kwargs):
-                t0 = clock()
-                try:
-                    return fn(*args, **kwargs)
-                finally:
-                    times[bucket] += clock() - t0
-            return call
+    def subscribe(self, events) -> Instrument:
+        events.subscribe("discretization", self.track)
+        return self
 
-        timed_assemble_matrix = timed(assemble_matrix, "assembly")
-        timed_assemble_vector = timed(assemble_vector, "assembly")
-        timed_solve_inner = timed(solve, "solve")
+    @property
+    def wrapped(self) -> int:
+        """Discretizations tracked."""
+        return len(self.flows)
 
-        def timed_set_operator(A, *args, **kwargs):
-            set_operator(A, *args, **kwargs)
-            self.factorizations += 1
-            if self.split_factorization:
-                t0 = clock()
-                try:
-                    solver.ksp.setUp()   # PCSetUp: the LU factorization, timed on its own
-                finally:
-                    times["factorization"] += clock() - t0
+    @property
+    def times(self) -> dict[str, float]:
+        return {
+            "assembly": sum(f.system.seconds["assembly"] for f in self.flows),
+            "factorization": sum(f.solver.seconds["factorization"] for f in self.flows),
+            "solve": sum(f.solver.seconds["solve"] for f in self.flows),
+        }
 
-        def timed_solve(*args, **kwargs):
-            try:
-                return timed_solve_inner(*args, **kwargs)
-            finally:
-                self.linear_solves += 1
+    @property
+    def linear_solves(self) -> int:
+        return sum(f.solver.solves for f in self.flows)
 
-        system.assemble_matrix = timed_assemble_matrix
-        system.assemble_vector = timed_assemble_vector
-        solver.set_operator = timed_set_operator
-        solver.solve = timed_solve
-        self.wrapped += 1
+    @property
+    def factorizations(self) -> int:
+        return sum(f.solver.factorizations for f in self.flows)
 
 
-@functools.cache
-def _simulation_class():
+def instrumented_simulation(instrument, cfg, run_dir, **kwargs):
+    """A Simulation whose discretizations ``instrument`` tracks from the first one on."""
+    from dpcollapse.loop import Events
     from dpcollapse.simulation import Simulation
 
-    class _BenchSimulation(Simulation):
-        """A Simulation whose every new discretization is instrumented as it is assigned
-        (initial mesh, remesh, landing rebuild), so no solve escapes the timers."""
-
-        def __init__(self, instrument: Instrument, *args, **kwargs):
-            self._instrument = instrument
-            super().__init__(*args, **kwargs)
-
-        @property
-        def disc(self):
-            return self.__dict__["disc"]
-
-        @disc.setter
-        def disc(self, value):
-            self.__dict__["disc"] = value
-            self._instrument.wrap(value)
-
-    return _BenchSimulation
+    events = Events()
+    instrument.subscribe(events)
+    return Simulation(cfg, run_dir, events=events, **kwargs)
 
 
 # ---------------------------------------------------------------------- memory
@@ -270,7 +236,7 @@ def linear_solve_time(cfg, comm, repeats: int = REPEATS) -> tuple[float, int]:
     from dolfinx import fem
     from mpi4py import MPI
 
-    from dpcollapse.geometry.trapezoid import build_mesh
+    from dpcollapse.scenes.registry import build_mesh
     from dpcollapse.simulation import Discretization, initial_velocity
 
     disc = Discretization(build_mesh(cfg, comm), cfg)
@@ -306,7 +272,7 @@ def _mean_over_ranks(comm, values: dict) -> dict:
 
 
 def run_case(name: str, cfg, run_dir: Path, comm, kind: str = "case",
-             split_factorization: bool = True, calibrate: bool = True) -> dict:
+             calibrate: bool = True) -> dict:
     """Run one case and return its row (every rank gets the same row)."""
     from mpi4py import MPI
 
@@ -314,9 +280,9 @@ def run_case(name: str, cfg, run_dir: Path, comm, kind: str = "case",
                  "mesh_size": cfg.geometry.mesh_size}
     t_lin, dofs = linear_solve_time(cfg, comm) if calibrate else (math.nan, -1)
     peak_reset = comm.allreduce(reset_peak_memory(), op=MPI.LAND)
-    instrument = Instrument(split_factorization)
+    instrument = Instrument()
     t0 = time.perf_counter()
-    sim = _simulation_class()(instrument, cfg, run_dir, quiet=True, comm=comm)
+    sim = instrumented_simulation(instrument, cfg, run_dir, quiet=True, comm=comm)
     setup = time.perf_counter() - t0
     if dofs < 0:
         dofs = _global_dofs(sim.disc.flow.W)
@@ -333,7 +299,7 @@ def run_case(name: str, cfg, run_dir: Path, comm, kind: str = "case",
         sim.disc.destroy()
     peak = comm.allreduce(peak_memory_mb(), op=MPI.MAX)
     tm = dict(sim.timings)
-    steps, t_sim = int(sim.state["step"]), float(sim.state["t"])
+    steps, t_sim = int(sim.state.step), float(sim.state.t)
     its = np.asarray(sim.iteration_counts, dtype=float)
     local = {
         "total": tm.get("total", time.perf_counter() - sim.wall0),
@@ -360,7 +326,7 @@ def run_case(name: str, cfg, run_dir: Path, comm, kind: str = "case",
         "linear_solves_per_step": (flow_solves + sim.ale_solves) * per_step,
         "flow_solves_per_step": flow_solves * per_step,
         "ale_solves_per_step": sim.ale_solves * per_step,
-        "remeshes": int(sim.state.get("remeshes", 0)),
+        "remeshes": int(sim.state.remeshes),
         "dt_min_s": min(sim.step_sizes, default=math.nan),
         "dt_mean_s": t_sim * per_step if steps else math.nan,
         "dt_max_s": max(sim.step_sizes, default=math.nan),

@@ -36,8 +36,8 @@ from dpcollapse.bench import (
     _csv_value,
     _fmt,
     _global_dofs,
-    _simulation_class,
     default_configs_dir,
+    instrumented_simulation,
     load_case_config,
     rerun_under_mpi,
 )
@@ -66,43 +66,37 @@ COLUMNS = ("kind", "solver", "np", "mesh_size", "dofs", "epsilon", "t", "status"
 
 
 class SolveTimer:
-    """Wraps ``flow.solver.set_operator``/``solve`` of every discretization it is given:
-    time of each part, solves, and Krylov iterations per solve."""
+    """Set-up and solve time of the flow solves of every discretization it is shown
+    (``track``, a subscriber of the run's ``discretization`` event), and the Krylov
+    iterations of each solve: the solvers keep these counts (``solvers.linear``,
+    ``solvers.iterative``), nothing is wrapped."""
 
     def __init__(self):
-        self.setup = 0.0
-        self.solve = 0.0
-        self.iterations: list[int] = []
-        self.wrapped = 0
+        self.flows: list = []
 
-    def wrap(self, disc) -> None:
-        flow = getattr(disc, "flow", None)
-        if flow is None or getattr(flow, "_krylov_timer", None) is self:
-            return
-        flow._krylov_timer = self
-        solver = flow.solver
-        set_operator, solve = solver.set_operator, solver.solve
+    def track(self, sim, disc) -> None:
+        if all(flow is not disc.flow for flow in self.flows):
+            self.flows.append(disc.flow)
 
-        def timed_set_operator(A, *args, **kwargs):
-            t0 = time.perf_counter()
-            try:
-                set_operator(A, *args, **kwargs)
-                solver.ksp.setUp()   # factorization / AMG set-up, timed here
-            finally:
-                self.setup += time.perf_counter() - t0
+    def subscribe(self, events) -> SolveTimer:
+        events.subscribe("discretization", self.track)
+        return self
 
-        def timed_solve(b, x):
-            before = getattr(solver, "krylov_iterations", 0)
-            t0 = time.perf_counter()
-            try:
-                solve(b, x)
-            finally:
-                self.solve += time.perf_counter() - t0
-                self.iterations.append(getattr(solver, "krylov_iterations", 0) - before)
+    @property
+    def wrapped(self) -> int:
+        return len(self.flows)
 
-        solver.set_operator = timed_set_operator
-        solver.solve = timed_solve
-        self.wrapped += 1
+    @property
+    def setup(self) -> float:
+        return sum(f.solver.seconds["factorization"] for f in self.flows)
+
+    @property
+    def solve(self) -> float:
+        return sum(f.solver.seconds["solve"] for f in self.flows)
+
+    @property
+    def iterations(self) -> list[int]:
+        return [its for f in self.flows for its in f.solver.solve_iterations]
 
 
 def run_krylov_case(cfg, run_dir: Path, comm) -> dict:
@@ -111,7 +105,7 @@ def run_krylov_case(cfg, run_dir: Path, comm) -> dict:
 
     n = cfg.numerics
     timer = SolveTimer()
-    sim = _simulation_class()(timer, cfg, run_dir, quiet=True, comm=comm)
+    sim = instrumented_simulation(timer, cfg, run_dir, quiet=True, comm=comm)
     dofs = _global_dofs(sim.disc.flow.W)
     status, front = "ok", math.nan
     t0 = time.perf_counter()
@@ -133,7 +127,7 @@ def run_krylov_case(cfg, run_dir: Path, comm) -> dict:
     return {
         "kind": "first_steps", "solver": n.linear_solver, "np": comm.size,
         "mesh_size": cfg.geometry.mesh_size, "dofs": dofs, "epsilon": n.epsilon,
-        "t": float(sim.state["t"]), "status": status, "steps": int(sim.state["step"]),
+        "t": float(sim.state.t), "status": status, "steps": int(sim.state.step),
         "solves": solves,
         "krylov_mean": float(its.mean()) if iterative and solves else math.nan,
         "krylov_max": int(its.max()) if iterative and solves else -1,
@@ -190,8 +184,8 @@ def developed_rows(cfg, run_dir: Path, comm, epsilons: Sequence[float]) -> list[
                 row = {
                     "kind": "developed", "solver": solver_name, "np": comm.size,
                     "mesh_size": cfg.geometry.mesh_size, "dofs": _global_dofs(flow.W),
-                    "epsilon": eps, "t": float(sim.state["t"]), "status": status,
-                    "steps": int(sim.state["step"]), "solves": 1,
+                    "epsilon": eps, "t": float(sim.state.t), "status": status,
+                    "steps": int(sim.state.step), "solves": 1,
                     "krylov_mean": float(its) if its >= 0 else math.nan, "krylov_max": its,
                     "setup_s": setup, "solve_s": solve, "time_per_solve_s": setup + solve,
                     "lu_over_iterative": math.nan, "wall_s": math.nan, "front": math.nan,

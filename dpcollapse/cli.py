@@ -160,9 +160,7 @@ def check(config: Path, overrides: tuple[str, ...]) -> int:
 def summary(cfg: Config, source: Path | str | None = None) -> str:
     """A few lines describing a valid config (derived numbers with units)."""
     g, t, m = cfg.geometry, cfg.time, cfg.material
-    shape = (f"layer: thickness {g.height:g} m, period {g.base_length:g} m" if g.shape == "layer"
-             else f"mass: height {g.height:g} m, base {g.base_length:g} m, "
-                  f"top length {g.top_length:.4f} m, area {g.area:.4f} m^2")
+    shape = g.describe()
     lines = [
         f"{source}: valid" if source else "config: valid",
         f"  mu_s = {m.mu_s:.4f}  mu_b = {cfg.boundary.mu_bed:.4f}  "
@@ -174,7 +172,7 @@ def summary(cfg: Config, source: Path | str | None = None) -> str:
         f"  output: {cfg.output.directory}",
     ]
     if cfg.numerics.method == "augmented_lagrangian":
-        from dpcollapse.discretization import augmented_settings
+        from dpcollapse.models.stokes.augmented import augmented_settings
 
         a = augmented_settings(cfg)
         lines.insert(2, f"  augmented Lagrangian: r = {a.augmentation:.4g} Pa s, r_f = "
@@ -230,7 +228,7 @@ def run(config: Path, overrides: tuple[str, ...], out: str | None, quiet: bool,
 def mesh(config: Path, overrides: tuple[str, ...], out: Path | None) -> int:
     """Write the initial mesh of CONFIG as a gmsh .msh file."""
     cfg = load_config(config, overrides)
-    write_msh = _lazy("dpcollapse.geometry.trapezoid", "write_msh")
+    write_msh = _lazy("dpcollapse.scenes.registry", "write_msh")
     write_msh(cfg, Path(out or Path("meshes") / f"{config.stem}.msh"))
     return 0
 

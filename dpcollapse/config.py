@@ -22,7 +22,9 @@ from pydantic import (
     BaseModel,
     BeforeValidator,
     ConfigDict,
+    Discriminator,
     Field,
+    Tag,
     ValidationError,
     ValidationInfo,
     field_validator,
@@ -34,12 +36,15 @@ from dpcollapse.errors import ConfigError
 
 __all__ = [
     "BoundaryConfig",
+    "ColumnGeometry",
     "Config",
     "GeometryConfig",
+    "LayerGeometry",
     "MaterialConfig",
     "NumericsConfig",
     "OutputConfig",
     "TimeConfig",
+    "TrapezoidGeometry",
     "config_to_dict",
     "load_config",
     "save_config",
@@ -95,45 +100,31 @@ class _Section(BaseModel):
 
 
 # ----------------------------------------------------------------------------- sections
-class GeometryConfig(_Section):
-    """The initial mass on a bed inclined by ``bed_angle``: a trapezoid against a left wall
-    (collapse, seed 000 case b) or a layer periodic in x (inclined plane, case a)."""
+# geometry: one class per scene (dpcollapse/scenes/), told apart by ``shape``
 
-    shape: Literal["trapezoid", "layer"] = _f(
-        "trapezoid", "", "Shape of the initial mass: trapezoid against a wall, or a layer "
-        "periodic in x (height = thickness, base_length = period)")
-    height: Number = _f(0.25, "m", "Initial height h0 of the mass (layer: thickness h)", gt=0)
-    base_length: Number = _f(
-        0.297, "m", "Base length l0, from the wall to the toe (layer: period L)", gt=0)
-    flank_angle: Number = _f(
-        70.0, "deg", "Angle alpha0 at which the right flank rises back over the mass", gt=0, le=90
-    )
-    bed_angle: Number = _f(
-        0.0, "deg", "Slope theta of the bed; gravity = g (sin θ, -cos θ) in slope coordinates",
-        ge=0, lt=90,
-    )
-    mesh_size: Number = _f(0.01, "m", "Cell size of the mesh (and of remeshing)", gt=0)
-    surface_mesh_size: Number | None = _f(
-        None, "m", "Cell size on the free surface (refinement); null means mesh_size", gt=0
-    )
-    mesh_file: PathStr | None = _f(
-        None, "", "Gmsh .msh file to use instead of meshing the trapezoid "
-        "(relative paths resolve against the config file's folder)",
-    )
 
-    @property
-    def top_length(self) -> float:
-        """Length of the flat top, wall to the flank's crest: l0 - h0/tan(alpha0) [m]."""
-        return self.base_length - self.height / math.tan(math.radians(self.flank_angle))
+def _bed_angle() -> Any:
+    return _f(0.0, "deg", "Slope theta of the bed; gravity = g (sin θ, -cos θ) in slope coordinates",
+              ge=0, lt=90)
 
-    @property
-    def area(self) -> float:
-        """Area of the mass: trapezoid (l0 + top_length)/2 * h0, layer L * h [m^2]."""
-        if self.shape == "layer":
-            return self.base_length * self.height
-        return 0.5 * (self.base_length + self.top_length) * self.height
 
-    @field_validator("mesh_file", mode="after")
+def _mesh_size() -> Any:
+    return _f(0.01, "m", "Cell size of the mesh (and of remeshing)", gt=0)
+
+
+def _surface_mesh_size() -> Any:
+    return _f(None, "m", "Cell size on the free surface (refinement); null means mesh_size", gt=0)
+
+
+def _mesh_file(what: str) -> Any:
+    return _f(None, "", f"Gmsh .msh file to use instead of meshing the {what} "
+              "(relative paths resolve against the config file's folder)")
+
+
+class _Geometry(_Section):
+    """Checks shared by the geometry classes (each declares its own keys, in file order)."""
+
+    @field_validator("mesh_file", mode="after", check_fields=False)
     @classmethod
     def _mesh_file_exists(cls, v: Path | None, info: ValidationInfo) -> Path | None:
         if v is None:
@@ -144,17 +135,46 @@ class GeometryConfig(_Section):
             raise ConfigError(f"geometry.mesh_file = {v}: file not found")
         return path
 
+    def _cells_fit(self, limit: float, what: str) -> None:
+        for key in ("mesh_size", "surface_mesh_size"):
+            h = getattr(self, key)
+            if h is not None and h >= limit:
+                raise ConfigError(f"geometry.{key} = {_fmt(h)}: larger than the {what}")
+
+
+class TrapezoidGeometry(_Geometry):
+    """A trapezoid against a left wall on the bed inclined by ``bed_angle`` (collapse, seed
+    000 case b)."""
+
+    shape: Literal["trapezoid"] = _f(
+        "trapezoid", "", "Shape of the initial mass: trapezoid against a wall, layer periodic "
+        "in x, or rectangular column against a symmetry wall")
+    height: Number = _f(0.25, "m", "Initial height h0 of the mass", gt=0)
+    base_length: Number = _f(0.297, "m", "Base length l0, from the wall to the toe", gt=0)
+    flank_angle: Number = _f(
+        70.0, "deg", "Angle alpha0 at which the right flank rises back over the mass", gt=0, le=90
+    )
+    bed_angle: Number = _bed_angle()
+    mesh_size: Number = _mesh_size()
+    surface_mesh_size: Number | None = _surface_mesh_size()
+    mesh_file: PathStr | None = _mesh_file("trapezoid")
+
+    @property
+    def top_length(self) -> float:
+        """Length of the flat top, wall to the flank's crest: l0 - h0/tan(alpha0) [m]."""
+        return self.base_length - self.height / math.tan(math.radians(self.flank_angle))
+
+    @property
+    def area(self) -> float:
+        """Area of the mass (l0 + top_length)/2 * h0 [m^2]."""
+        return 0.5 * (self.base_length + self.top_length) * self.height
+
+    def describe(self) -> str:
+        return (f"mass: height {self.height:g} m, base {self.base_length:g} m, "
+                f"top length {self.top_length:.4f} m, area {self.area:.4f} m^2")
+
     @model_validator(mode="after")
-    def _fits(self) -> GeometryConfig:
-        if self.shape == "layer":
-            limit = min(self.height, self.base_length)
-            for key in ("mesh_size", "surface_mesh_size"):
-                h = getattr(self, key)
-                if h is not None and h >= limit:
-                    raise ConfigError(
-                        f"geometry.{key} = {_fmt(h)}: larger than the layer "
-                        f"(must be < {limit:.3g} m = min(height, base_length))")
-            return self
+    def _fits(self) -> TrapezoidGeometry:
         top = self.top_length
         if top <= 0:
             least = math.degrees(math.atan2(self.height, self.base_length))
@@ -164,14 +184,88 @@ class GeometryConfig(_Section):
                 f"{_fmt(self.height)} m and base_length {_fmt(self.base_length)} m"
             )
         limit = min(self.height, top)
-        for key in ("mesh_size", "surface_mesh_size"):
-            h = getattr(self, key)
-            if h is not None and h >= limit:
-                raise ConfigError(
-                    f"geometry.{key} = {_fmt(h)}: larger than the mass "
-                    f"(must be < {limit:.3g} m = min(height, top length))"
-                )
+        self._cells_fit(limit, f"mass (must be < {limit:.3g} m = min(height, top length))")
         return self
+
+
+class LayerGeometry(_Geometry):
+    """A layer of thickness ``height`` on the inclined bed, periodic in x with period
+    ``base_length`` (inclined plane, seed 000 case a)."""
+
+    shape: Literal["layer"] = _f("layer", "", "The periodic layer")
+    height: Number = _f(0.25, "m", "Thickness h of the layer", gt=0)
+    base_length: Number = _f(0.297, "m", "Period L of the layer", gt=0)
+    flank_angle: Number = _f(
+        70.0, "deg", "Not used by the layer (accepted so that configs written for both shapes "
+        "load)", gt=0, le=90)
+    bed_angle: Number = _bed_angle()
+    mesh_size: Number = _mesh_size()
+    surface_mesh_size: Number | None = _surface_mesh_size()
+    mesh_file: PathStr | None = _mesh_file("layer")
+
+    @property
+    def area(self) -> float:
+        """L * h [m^2]."""
+        return self.base_length * self.height
+
+    def describe(self) -> str:
+        return f"layer: thickness {self.height:g} m, period {self.base_length:g} m"
+
+    @model_validator(mode="after")
+    def _fits(self) -> LayerGeometry:
+        limit = min(self.height, self.base_length)
+        self._cells_fit(limit, f"layer (must be < {limit:.3g} m = min(height, base_length))")
+        return self
+
+
+class ColumnGeometry(_Geometry):
+    """A rectangular column of height H0 and half-width L0 against a frictionless symmetry
+    wall at x = 0, on the bed of ``boundary.bed_condition``."""
+
+    shape: Literal["column"] = _f("column", "", "The rectangular column")
+    height: Number = _f(0.14, "m", "Initial height H0 of the column", gt=0)
+    base_length: Number = _f(0.14, "m", "Half-width L0: from the symmetry wall to the front", gt=0)
+    bed_angle: Number = _bed_angle()
+    mesh_size: Number = _mesh_size()
+    surface_mesh_size: Number | None = _surface_mesh_size()
+    mesh_file: PathStr | None = _mesh_file("column")
+
+    @property
+    def area(self) -> float:
+        """H0 * L0 [m^2]."""
+        return self.height * self.base_length
+
+    @property
+    def aspect_ratio(self) -> float:
+        """a = H0/L0 [-]."""
+        return self.height / self.base_length
+
+    def describe(self) -> str:
+        return (f"column: height {self.height:g} m, half-width {self.base_length:g} m, "
+                f"aspect ratio {self.aspect_ratio:.3g}, area {self.area:.4f} m^2")
+
+    @model_validator(mode="after")
+    def _fits(self) -> ColumnGeometry:
+        limit = min(self.height, self.base_length)
+        self._cells_fit(limit, f"column (must be < {limit:.3g} m = min(height, base_length))")
+        return self
+
+
+def _shape_of(value: Any) -> str:
+    """The geometry class of a mapping or model: its ``shape``, trapezoid when absent."""
+    if isinstance(value, dict):
+        return value.get("shape", "trapezoid")
+    return value.shape if isinstance(value, _Geometry) else "trapezoid"
+
+
+GeometryConfig = Annotated[
+    Annotated[TrapezoidGeometry, Tag("trapezoid")] | Annotated[LayerGeometry, Tag("layer")]
+    | Annotated[ColumnGeometry, Tag("column")],
+    Discriminator(_shape_of),
+]
+#: geometry.shape -> its config class
+GEOMETRIES: dict[str, type[_Geometry]] = {"trapezoid": TrapezoidGeometry, "layer": LayerGeometry,
+                                          "column": ColumnGeometry}
 
 
 class MaterialConfig(_Section):
@@ -361,7 +455,7 @@ class OutputConfig(_Section):
 class Config(_Section):
     """The whole configuration; every section has defaults."""
 
-    geometry: GeometryConfig = Field(default_factory=GeometryConfig, description="Initial mass")
+    geometry: GeometryConfig = Field(default_factory=TrapezoidGeometry, description="Initial mass")
     material: MaterialConfig = Field(default_factory=MaterialConfig, description="Material")
     boundary: BoundaryConfig = Field(default_factory=BoundaryConfig, description="Friction")
     numerics: NumericsConfig = Field(default_factory=NumericsConfig, description="Solvers")
@@ -423,21 +517,43 @@ def _fmt(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _model_at(loc: Sequence[str]) -> type[BaseModel] | None:
-    """The model class found by walking ``loc`` down from Config (None if not a section)."""
-    model: type[BaseModel] = Config
-    for part in loc:
+#: Keys that were renamed: (section, old key) -> the new "section.key". A config that uses
+#: the old name is refused with a message naming the new one.
+RENAMED: dict[tuple[str, str], str] = {}
+
+#: Sections whose value is one of several classes told apart by a tag (the tag appears in
+#: pydantic's error locations after the section name).
+_UNIONS: dict[str, dict[str, type[BaseModel]]] = {"geometry": GEOMETRIES}
+
+
+def _walk(loc: Sequence[str]) -> tuple[list[str], type[BaseModel] | None]:
+    """(the key path without union tags, the model class of the last section on it)."""
+    model: type[BaseModel] | None = Config
+    clean: list[str] = []
+    parts = list(loc)
+    while parts:
+        part = parts.pop(0)
+        clean.append(part)
+        if model is None:
+            continue
+        variants = _UNIONS.get(part) if model is Config else None
+        if variants is not None:
+            model = variants.get(parts.pop(0)) if parts and parts[0] in variants else None
+            continue
         field = model.model_fields.get(part)
         ann = getattr(field, "annotation", None)
-        if not (isinstance(ann, type) and issubclass(ann, BaseModel)):
-            return None
-        model = ann
-    return model
+        model = ann if isinstance(ann, type) and issubclass(ann, BaseModel) else None
+    return clean, model
 
 
-def _allowed_range(section: str, key: str) -> str:
+def _model_at(loc: Sequence[str]) -> type[BaseModel] | None:
+    """The model class found by walking ``loc`` down from Config (None if not a section)."""
+    return _walk(loc)[1]
+
+
+def _allowed_range(model: type[BaseModel], key: str) -> str:
     """'must be in (0, 90] degrees' / 'must be > 0 (kg/m^3)' from the field's constraints."""
-    field = _model_at([section]).model_fields[key]  # type: ignore[union-attr]
+    field = model.model_fields[key]
     unit = (field.json_schema_extra or {}).get("unit", "")  # type: ignore[union-attr]
     lo = hi = None
     for m in field.metadata:
@@ -457,19 +573,27 @@ def _allowed_range(section: str, key: str) -> str:
 def _from_validation_error(exc: ValidationError) -> ConfigError:
     """The first pydantic error as one line: key path, value given, what is allowed."""
     err = exc.errors()[0]
-    loc = [str(p) for p in err["loc"]]
+    raw = [str(p) for p in err["loc"]]
+    loc, _ = _walk(raw)
     key = ".".join(loc)
     kind = err["type"]
     if kind == "extra_forbidden":
-        parent = _model_at(loc[:-1])
+        if tuple(loc) in RENAMED:
+            return ConfigError(f"{key}: renamed; use {RENAMED[tuple(loc)]}")
+        parent = _model_at(raw[:-1])
         names = list(parent.model_fields) if parent else []
         close = get_close_matches(loc[-1], names, n=1)
         hint = f"did you mean '{close[0]}'?" if close else "allowed: " + ", ".join(names)
         what = "unknown section" if len(loc) == 1 else "unknown key"
         return ConfigError(f"{key}: {what}; {hint}")
+    if kind == "union_tag_invalid":
+        ctx = err.get("ctx", {})
+        return ConfigError(f"{key}.shape = {_fmt(ctx.get('tag'))}: must be one of "
+                           f"{ctx.get('expected_tags', '?')}")
     value = _fmt(err.get("input"))
-    if kind in _RANGE_TYPES and len(loc) == 2:
-        text = _allowed_range(*loc)
+    parent = _model_at(raw[:-1])
+    if kind in _RANGE_TYPES and len(loc) == 2 and parent is not None:
+        text = _allowed_range(parent, loc[-1])
     elif kind == "literal_error":
         text = "must be one of " + str(err.get("ctx", {}).get("expected", "?"))
     else:

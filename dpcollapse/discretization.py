@@ -18,18 +18,22 @@ from dpcollapse import compat
 from dpcollapse.ale.motion import MeshMotion, cell_orientation, quality
 from dpcollapse.config import Config
 from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.rheology.base import Rheology
 from dpcollapse.rheology.drucker_prager import DruckerPrager
 from dpcollapse.rheology.mu_i import MuI
-from dpcollapse.rheology.wellposedness import well_posed_window
-from dpcollapse.solvers.augmented import AugmentedLagrangianFlow, AugmentedSettings, default_augmentation
-from dpcollapse.solvers.regularized import FlowParameters, PicardSettings, RegularizedFlow
+from dpcollapse.scenes.registry import scene as make_scene
+from dpcollapse.models.registry import model_class
+from dpcollapse.models.stokes.augmented import augmented_settings  # noqa: F401  (callers import it here)
+from dpcollapse.models.stokes.regularized import picard_settings  # noqa: F401  (callers import it here)
+from dpcollapse.models.stokes.state import FlowParameters
 
 #: Speed above which a point counts as flowing (seed 000) [m/s].
 FLOWING_SPEED = 1e-3
 
 
-def rheology(cfg: Config):
-    """The constitutive law of ``material``: DruckerPrager or MuI."""
+def rheology(cfg: Config) -> Rheology:
+    """The constitutive law of ``material`` (a :class:`~dpcollapse.rheology.base.Rheology`):
+    DruckerPrager or MuI."""
     m = cfg.material
     if m.rheology == "mu_i":
         return MuI(mu_s=m.mu_s, mu_2=m.mu_2, I0=m.inertial_number_I0, grain_diameter=m.grain_diameter,
@@ -37,29 +41,20 @@ def rheology(cfg: Config):
     return DruckerPrager(m.viscosity, m.mu_s, m.cohesion)
 
 
-def flow_parameters(cfg: Config) -> FlowParameters:
+def flow_parameters(cfg: Config, scene=None) -> FlowParameters:
+    """Physical parameters of the flow: the material and the boundaries of the scene (of the
+    config when not given)."""
     m, b = cfg.material, cfg.boundary
+    scene = scene or make_scene(cfg)
     return FlowParameters(
         density=m.density, gravity=m.gravity, bed_angle=math.radians(cfg.geometry.bed_angle),
-        rheology=rheology(cfg), mu_bed=b.mu_bed, mu_wall=b.mu_wall,
-        bed_no_slip=b.bed_condition == "no_slip", channel_width=b.channel_width, mu_side=b.mu_side)
+        rheology=rheology(cfg), boundaries=scene.boundaries(), channel_width=b.channel_width,
+        mu_side=b.mu_side)
 
 
 def initial_velocity(cfg: Config):
-    """The initial velocity u(x, y) as a callable for ``Function.interpolate``:
-    rest, or the half-Poiseuille profile U_s (2y/h − y²/h²) along the bed."""
-    h, us = cfg.geometry.height, cfg.initial.surface_speed
-    if cfg.initial.velocity == "half_poiseuille":
-        return lambda x: np.vstack([us * (2 * x[1] / h - (x[1] / h) ** 2), np.zeros(x.shape[1])])
-    return lambda x: np.zeros((2, x.shape[1]))
-
-
-def picard_settings(cfg: Config) -> PicardSettings:
-    n = cfg.numerics
-    return PicardSettings(n.epsilon, n.epsilon_friction, n.nonlinear_rtol, n.nonlinear_atol,
-                          n.max_iterations, n.linear_solver, n.anderson_depth,
-                          n.reuse_factorization, n.quadrature_degree, n.extrapolate,
-                          n.krylov_rtol, n.krylov_max_iterations)
+    """The initial velocity u(x, y) of the config's scene, for ``Function.interpolate``."""
+    return make_scene(cfg).initial_velocity()
 
 
 def direct_solver(cfg: Config) -> str:
@@ -68,24 +63,9 @@ def direct_solver(cfg: Config) -> str:
     return "mumps" if n.linear_solver == "iterative" else n.linear_solver
 
 
-def augmented_settings(cfg: Config) -> AugmentedSettings:
-    """Settings of the augmented Lagrangian; r, r_f default to 2ρ√g h0^{3/2} and 10 r/h0."""
-    n, m, h = cfg.numerics, cfg.material, cfg.geometry.height
-    r, r_f, r_w = default_augmentation(m.density, m.gravity, h)
-    if n.augmentation is not None:
-        r, r_w = n.augmentation, n.augmentation / h**2
-        r_f = 10.0 * n.augmentation / h
-    if n.augmentation_friction is not None:
-        r_f = n.augmentation_friction
-    return AugmentedSettings(r, r_f, r_w, n.nonlinear_rtol, n.nonlinear_atol, n.augmented_max_iterations,
-                             n.epsilon, n.epsilon_friction, n.linear_solver, n.anderson_depth)
-
-
-def make_flow(tagged: TaggedMesh, cfg: Config):
-    """The flow solver of ``numerics.method`` on one mesh."""
-    if cfg.numerics.method == "augmented_lagrangian":
-        return AugmentedLagrangianFlow(tagged, flow_parameters(cfg), augmented_settings(cfg))
-    return RegularizedFlow(tagged, flow_parameters(cfg), picard_settings(cfg))
+def make_flow(tagged: TaggedMesh, cfg: Config, scene=None):
+    """The model of ``numerics.method`` on one mesh (``models.registry``)."""
+    return model_class(cfg.numerics.method).from_config(tagged, cfg, flow_parameters(cfg, scene))
 
 
 class Discretization:
@@ -95,7 +75,8 @@ class Discretization:
         self.tagged = tagged
         self.mesh = mesh = tagged.mesh
         self.comm = mesh.comm
-        self.flow = make_flow(tagged, cfg)
+        self.scene = make_scene(cfg)
+        self.flow = make_flow(tagged, cfg, self.scene)
         self.orientation = cell_orientation(mesh)
         self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
                                  direct_solver(cfg)) if cfg.numerics.ale else None
@@ -110,20 +91,19 @@ class Discretization:
         self.out_pressure = fem.Function(S1, name="pressure")
         self.out_strain_rate = fem.Function(S0, name="strain_rate")
         self.out_flowing = fem.Function(S1, name="flowing")
-        self.out_rigid = None
-        if isinstance(self.flow, AugmentedLagrangianFlow):  # exact rigid zone: γ̇ = 0
-            self.out_rigid = fem.Function(S0, name="rigid")
+        # per-cell fields of the model (AL: the exact rigid zone γ̇ = 0)
+        self.out_cells = [fem.Function(S0, name=name) for name in self.flow.exported_cell_fields]
         D = ufl.sym(ufl.grad(u))
         self._strain_expr = compat.expression(ufl.sqrt(ufl.inner(D, D)), S0)
         self.law = law = self.flow.params.rheology
-        self.window = None
-        if isinstance(law, MuI):  # inertial number per cell, and the well-posed window
-            eps = cfg.numerics.epsilon
-            self.out_inertial = fem.Function(S0, name="inertial_number")
-            self._inertial_expr = compat.expression(law.inertial_number(u, p, eps), S0)
+        # fields only some laws have (μ(I): the inertial number), and the well-posed window
+        eps = cfg.numerics.epsilon
+        self.out_extra = {name: (fem.Function(S0, name=name), compat.expression(expr, S0))
+                          for name, expr in law.diagnostic_fields(u, p, eps).items()}
+        self.window = law.well_posed_window()
+        if self.window is not None:
             self._speed = fem.Function(S0)
             self._speed_expr = compat.expression(ufl.sqrt(ufl.inner(u, u)), S0)
-            self.window = well_posed_window(law)
 
     def area(self) -> float:
         return self.comm.allreduce(fem.assemble_scalar(self._area), op=MPI.SUM)
@@ -132,11 +112,11 @@ class Discretization:
         """Front position (furthest x of the mass: the toe, or the nose of an overturning
         front), maximum height, kinetic energy, area, max speed, mesh quality."""
         x = self.mesh.geometry.x
-        front = x[:, 0].max() if len(x) else -np.inf
+        front, height = self.scene.extent(x)
         speed = np.linalg.norm(self.flow.u_old.x.array.reshape(-1, 2), axis=1)
         out = {
             "front": self.comm.allreduce(float(front), op=MPI.MAX),
-            "max_height": self.comm.allreduce(float(x[:, 1].max()), op=MPI.MAX),
+            "max_height": self.comm.allreduce(float(height), op=MPI.MAX),
             "kinetic_energy": self.comm.allreduce(fem.assemble_scalar(self._kinetic), op=MPI.SUM),
             "gravity_moment": self.comm.allreduce(fem.assemble_scalar(self._gravity_moment), op=MPI.SUM),
             "area": self.area(),
@@ -152,9 +132,10 @@ class Discretization:
         if self.window is None:
             return math.nan
         n = compat.num_owned_cells(self.mesh)
-        self.out_inertial.interpolate(self._inertial_expr)
+        inertial, expr = self.out_extra["inertial_number"]
+        inertial.interpolate(expr)
         self._speed.interpolate(self._speed_expr)
-        I = self.out_inertial.x.array[:n]
+        I = inertial.x.array[:n]
         flowing = self._speed.x.array[:n] > FLOWING_SPEED
         lo, hi = self.window
         bad = flowing & ((I < lo) | (I > hi)) if lo == lo else flowing
@@ -169,13 +150,13 @@ class Discretization:
         speed = np.linalg.norm(self.out_velocity.x.array.reshape(-1, 2), axis=1)
         self.out_flowing.x.array[:] = (speed > FLOWING_SPEED).astype(float)
         fields = [self.out_velocity, self.out_pressure, self.out_strain_rate, self.out_flowing]
-        if self.out_rigid is not None:
-            cells = compat.cell_dofs(self.out_rigid.function_space)[:, 0]
-            self.out_rigid.x.array[cells] = self.flow.rigid_cells().astype(float)
-            fields.append(self.out_rigid)
-        if self.window is not None:
-            self.out_inertial.interpolate(self._inertial_expr)
-            fields.append(self.out_inertial)
+        for function in self.out_cells:
+            cells = compat.cell_dofs(function.function_space)[:, 0]
+            function.x.array[cells] = self.flow.cell_field(function.name)
+            fields.append(function)
+        for function, expr in self.out_extra.values():
+            function.interpolate(expr)
+            fields.append(function)
         return fields
 
     def destroy(self) -> None:

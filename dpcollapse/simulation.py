@@ -1,14 +1,17 @@
-"""The time loop of a collapse: ALE step, Picard solve, remesh, diagnostics, output.
+"""The time loop: domain step, model step, remesh, diagnostics, output, events.
 
-Each step n → n+1 (seed 000's update algorithm):
-1. if the mesh is too distorted (smallest angle below ``numerics.remesh_min_angle``),
-   remesh from the current boundary and carry uⁿ, pⁿ across;
-2. compute the mesh velocity wⁿ from uⁿ; limit Δt so that no cell loses more than half
-   its area and no free-surface node more than half its height above the bed; with
+Each step n → n+1 (seed 000's update algorithm), on a fixed or moving domain
+(``domain``) with the model of ``numerics.method`` (``models``):
+1. if the domain asks for it (moving: smallest angle below ``numerics.remesh_min_angle``),
+   remesh from the current boundary and carry the model's state across (snapshot/transfer);
+2. the domain limits Δt (moving: the mesh velocity wⁿ from uⁿ; no cell loses more than
+   half its area and no free-surface node more than half its height above the bed); with
    ``time.adaptive`` also Δt ≤ cfl·min_K h_K/max_K |uⁿ| (the Courant bound);
-3. move the nodes by Δt·wⁿ, solve the Picard fixed point for (u^{n+1}, p^{n+1});
+3. the domain moves by Δt·wⁿ, the model solves its step for (u^{n+1}, p^{n+1});
    if it fails, undo the move and halve Δt down to ``time.dt_min``;
 4. record diagnostics; write XDMF/checkpoint every N steps; stop at rest or end time.
+The state of the loop is a ``loop.LoopState``; subscribers of ``loop.Events`` see new
+discretizations, accepted steps, outputs, remeshes and failures.
 
 Step size: fixed ``time.dt`` (a step cut by a failure or the mesh motion recovers ×1.5 per
 step), or with ``time.adaptive`` the next target Δt ← ×STEP_GROWTH after a fixed point of
@@ -32,29 +35,22 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.ale.motion import quality, retag_landed
 from dpcollapse.ale.quality import courant_rate
-from dpcollapse.ale.remesh import (load_multipliers, load_state, remesh_domain, snapshot,
-                                  snapshot_multipliers)
 from dpcollapse.config import Config, config_to_dict, save_config
+from dpcollapse.domain import moving
+from dpcollapse.domain.base import make_domain
 from dpcollapse.errors import ConfigError, ConvergenceError, Interrupted, MeshError
 from dpcollapse.geometry.mesher import TaggedMesh
-from dpcollapse.geometry.trapezoid import build_mesh
-from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
+from dpcollapse.scenes.registry import build_mesh
+from dpcollapse.io.checkpoint import load_checkpoint
 from dpcollapse.io.diagnostics import DiagnosticsWriter
 from dpcollapse.io.runinfo import RunInfo
-from dpcollapse.io.xdmf import XDMFTimeSeries
-from dpcollapse.io.vtx import VTXTimeSeries
+from dpcollapse.io.exports import CheckpointExport, FieldExport
+from dpcollapse.loop import Events, LoopState
 from dpcollapse.discretization import (Discretization, flow_parameters, initial_velocity,  # noqa: F401
                                        picard_settings, rheology)
 
 log = logging.getLogger("dpcollapse")
 
-#: Largest area change a remesh may make by dropping boundary vertices, relative.
-REMESH_AREA_TOLERANCE = 1e-6
-#: Steps between two remeshes triggered by the angle criterion alone.
-REMESH_COOLDOWN = 5
-#: After a remesh that left an angle below the threshold, remesh again only when the
-#: smallest angle has dropped below this fraction of the angle the remesh left.
-REMESH_DEGRADATION = 0.9
 #: Energy guard (moving domains): the kinetic energy may exceed the work of gravity by at
 #: most this fraction before the run is declared numerically unstable.
 ENERGY_TOLERANCE = 0.05
@@ -65,8 +61,6 @@ FEW_ITERATIONS = 3
 #: ... and the shrink factor after a fixed point of more than this many iterations.
 STEP_SHRINK = 0.7
 MANY_ITERATIONS = 12
-#: Augmented Lagrangian: both iteration thresholds are multiplied by this.
-AL_ITERATION_SCALE = 5
 
 
 class Progress:
@@ -119,8 +113,12 @@ class Simulation:
     """The run: owns the run directory, the time loop and its state."""
 
     def __init__(self, cfg: Config, run_dir: Path, quiet: bool = False, resume: bool = False,
-                 comm: MPI.Comm = MPI.COMM_WORLD):
+                 comm: MPI.Comm = MPI.COMM_WORLD, events: Events | None = None):
         self.cfg, self.comm, self.quiet = cfg, comm, quiet
+        #: subscribers to the run's events (``loop.Events``), e.g. a benchmark's timers
+        self.events = events or Events()
+        #: fixed or moving (``domain``)
+        self.domain = make_domain(cfg)
         if cfg.output.format != "xdmf" and not compat.has_adios2():
             raise ConfigError(f"output.format = {cfg.output.format}: this DOLFINx "
                               f"({compat.DOLFINX_VERSION_TEXT}) has no ADIOS2 (Debian 12's 0.5.2 "
@@ -132,36 +130,31 @@ class Simulation:
         self.checkpoint_path = self.run_dir / "checkpoint.npz"
         resume = resume and self.checkpoint_path.exists()
         if resume:
-            tagged, u, p, self.state, extra = load_checkpoint(self.checkpoint_path, comm)
-            self.disc = Discretization(tagged, cfg)
-            load_state(self.disc.flow, u, p)
-            load_multipliers(self.disc.flow, extra)
-            self.disc.flow.solution.x.array[:] = self.disc.flow.iterate.x.array
-            log.info("resuming from t = %.4f s (step %d)", self.state["t"], self.state["step"])
+            tagged, u, p, state, extra = load_checkpoint(self.checkpoint_path, comm)
+            self.state = LoopState.from_dict(state)
+            self._use(Discretization(tagged, cfg))
+            self.disc.flow.transfer({"velocity": u, "pressure": p, **extra})
+            log.info("resuming from t = %.4f s (step %d)", self.state.t, self.state.step)
         else:
-            self.disc = Discretization(build_mesh(cfg, comm), cfg)
+            self.state = LoopState(dt_target=cfg.time.dt)
+            self._use(Discretization(build_mesh(cfg, comm), cfg))
             self.disc.flow.set_velocity(initial_velocity(cfg))
             m0 = self.disc.measures()
-            self.state = {"t": 0.0, "step": 0, "dt_target": cfg.time.dt, "rest_time": 0.0,
-                          "remeshes": 0, "last_remesh_step": -10**9, "area0": m0["area"],
-                          "gravity_moment0": m0["gravity_moment"],
-                          "kinetic_energy0": m0["kinetic_energy"], "status": "running"}
+            st = self.state
+            st.area0, st.gravity_moment0, st.kinetic_energy0 = (
+                m0["area"], m0["gravity_moment"], m0["kinetic_energy"])
         if comm.rank == 0:
             save_config(cfg, self.run_dir / "config.yaml")
-        fmt = cfg.output.format
-        self.xdmf = XDMFTimeSeries(self.run_dir, comm) if fmt != "vtx" else None
-        self.vtx = VTXTimeSeries(self.run_dir, comm) if fmt != "xdmf" else None
+        self.field_export = FieldExport(self.run_dir, comm, cfg.output.format, cfg.time.output_every)
+        self.checkpoint_export = CheckpointExport(self.checkpoint_path, cfg.time.checkpoint_every)
         if resume:
-            for series in (self.xdmf, self.vtx):
-                if series is not None:
-                    series.truncate_after(self.state["t"])
+            self.field_export.truncate_after(self.state.t)
         self.diagnostics = DiagnosticsWriter(self.run_dir / "diagnostics.csv", comm,
-                                             resume_after=self.state["t"] if resume else None)
+                                             resume_after=self.state.t if resume else None)
         self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg))
         self.timings = {"solve": 0.0, "mesh_motion": 0.0, "remesh": 0.0, "output": 0.0}
         self.iteration_counts: list[int] = []
         self.step_sizes: list[float] = []
-        self.ale_solves = 0
         self.factorizations = 0  # LU factorizations of the flow system (retired meshes)
         self.krylov_iterations = 0  # Krylov iterations of the flow solves (retired meshes)
         self.dt_limit = math.inf
@@ -170,29 +163,32 @@ class Simulation:
         if not resume:
             self._output()
 
+    @property
+    def ale_solves(self) -> int:
+        """Mesh-velocity solves so far."""
+        return self.domain.solves
+
     # ------------------------------------------------------------------ pieces
+    def _use(self, disc: Discretization) -> None:
+        """Make ``disc`` the current discretization (event ``discretization``)."""
+        self.disc = disc
+        self.events.emit("discretization", self, disc)
+
     def _output(self) -> None:
-        t = self.state["t"]
-        if self.xdmf is not None and self.xdmf.steps and self.xdmf.steps[-1][1] >= t:
-            return  # already written at this time
-        if self.vtx is not None and self.vtx.steps and self.vtx.steps[-1] >= t:
+        t = self.state.t
+        if self.field_export.written(t):
             return
         t0 = time.perf_counter()
-        functions = self.disc.output_functions()
-        if self.xdmf is not None:
-            self.xdmf.write(t, self.disc.mesh, functions)
-        if self.vtx is not None:
-            self.vtx.write(t, self.disc.mesh, functions)
+        self.field_export.write(t, self.disc.mesh, self.disc.output_functions())
         self.timings["output"] += time.perf_counter() - t0
+        self.events.emit("output", self, t)
 
     def _checkpoint(self) -> None:
-        if self.state.get("checkpoint_step") == self.state["step"]:
+        if self.state.checkpoint_step == self.state.step:
             return
-        self.state["checkpoint_step"] = self.state["step"]
+        self.state.checkpoint_step = self.state.step
         t0 = time.perf_counter()
-        u, p = snapshot(self.disc.flow)
-        save_checkpoint(self.checkpoint_path, self.disc.tagged, u, p, self.state,
-                        snapshot_multipliers(self.disc.flow))
+        self.checkpoint_export.write(self.disc.tagged, self.disc.flow.snapshot(), self.state.to_dict())
         self.timings["output"] += time.perf_counter() - t0
 
     def _remesh(self, reason: str) -> None:
@@ -200,32 +196,31 @@ class Simulation:
         cfg, old = self.cfg, self.disc
         area_before = old.area()
         cells_before = self.comm.allreduce(compat.num_owned_cells(old.mesh), op=MPI.SUM)
-        u, p = snapshot(old.flow)
-        multipliers = snapshot_multipliers(old.flow)
-        tagged, d_poly, nverts = remesh_domain(
-            old.tagged, cfg.geometry.mesh_size, cfg.geometry.surface_mesh_size,
-            REMESH_AREA_TOLERANCE * self.state["area0"])
+        fields = old.flow.snapshot()
+        tagged, nverts = self.domain.remesh(old.tagged, self.state.area0)
         self._retire(old)
-        self.disc = Discretization(tagged, cfg)
-        outside = load_state(self.disc.flow, u, p)
-        load_multipliers(self.disc.flow, multipliers)
+        self._use(Discretization(tagged, cfg))
+        outside = self.disc.flow.transfer(fields)
         area_after = self.disc.area()
         cells_after = self.comm.allreduce(compat.num_owned_cells(tagged.mesh), op=MPI.SUM)
-        self.state["remeshes"] += 1
-        self.state["last_remesh_step"] = self.state["step"]
+        self.state.remeshes += 1
+        self.state.last_remesh_step = self.state.step
         angle_after = quality(self.disc.mesh)["min_angle"]
-        self.state["remesh_angle_after"] = angle_after
+        self.state.remesh_angle_after = angle_after
         if angle_after < cfg.numerics.remesh_min_angle:
             log.warning("remesh %d: the new mesh's smallest angle is %.1f° (< %g°, set by the "
                         "boundary); the next remesh waits until it drops below %.1f°",
-                        self.state["remeshes"], angle_after, cfg.numerics.remesh_min_angle,
-                        REMESH_DEGRADATION * angle_after)
+                        self.state.remeshes, angle_after, cfg.numerics.remesh_min_angle,
+                        moving.REMESH_DEGRADATION * angle_after)
         self.timings["remesh"] += time.perf_counter() - t0
 
         log.info("remesh %d at t = %.4f s (%s): area %.8e -> %.8e m² (%+.2e rel), cells %d -> %d, "
-                 "%d boundary vertices, max extrapolation %.1e m", self.state["remeshes"],
-                 self.state["t"], reason, area_before, area_after,
+                 "%d boundary vertices, max extrapolation %.1e m", self.state.remeshes,
+                 self.state.t, reason, area_before, area_after,
                  (area_after - area_before) / area_before, cells_before, cells_after, nverts, outside)
+        self.events.emit("remesh", self, {"reason": reason, "area_before": area_before,
+                                          "area_after": area_after, "cells_before": cells_before,
+                                          "cells_after": cells_after})
 
     def _check_energy(self, m: dict) -> None:
         """Dissipative flow: KE(t) − KE(0) ≤ W(t), the work of gravity ρ∫f·x dx|₀ᵗ (valid when
@@ -233,14 +228,15 @@ class Simulation:
         previous step's velocity, so the kinetic energy of step n−1 is compared with the work
         up to step n. A violation means a numerical instability."""
         st = self.state
-        if self.disc.motion is None:
+        if not self.domain.moving:
             return
-        work = m["gravity_moment"] - st["gravity_moment0"]
-        gained = st.get("kinetic_energy_previous", st["kinetic_energy0"]) - st["kinetic_energy0"]
-        st["kinetic_energy_previous"] = m["kinetic_energy"]
-        if gained > (1 + ENERGY_TOLERANCE) * max(work, 0.0) + 1e-9 * max(abs(st["gravity_moment0"]), 1.0):
+        work = m["gravity_moment"] - st.gravity_moment0
+        previous = st.kinetic_energy_previous
+        gained = (st.kinetic_energy0 if previous is None else previous) - st.kinetic_energy0
+        st.kinetic_energy_previous = m["kinetic_energy"]
+        if gained > (1 + ENERGY_TOLERANCE) * max(work, 0.0) + 1e-9 * max(abs(st.gravity_moment0), 1.0):
             raise MeshError(
-                f"numerically unstable at t = {st['t']:.4f} s: the kinetic energy gained "
+                f"numerically unstable at t = {st.t:.4f} s: the kinetic energy gained "
                 f"({gained:.3g} J/m) exceeds the work of gravity ({work:.3g} J/m); min cell angle "
                 f"{m['min_angle']:.2f}°: the mass is likely thinner than geometry.mesh_size = "
                 f"{self.cfg.geometry.mesh_size:g} m somewhere — use a finer mesh or a shorter time.end_time")
@@ -257,21 +253,8 @@ class Simulation:
         state (uⁿ, iterate, mesh velocity) is copied as arrays. The old one is kept alive
         for the caller to restore or destroy."""
         old = self.disc
-        self.disc = Discretization(tagged, self.cfg)
+        self._use(Discretization(tagged, self.cfg))
         self.disc.flow.copy_state_from(old.flow)
-
-    def _needs_remesh(self) -> str | None:
-        if self.disc.motion is None:
-            return None
-        q = quality(self.disc.mesh)
-        since = self.state["step"] - self.state["last_remesh_step"]
-        # a remesh that could not reach the threshold (a sharp boundary corner) sets a
-        # lower one, so that the same mesh is not rebuilt every REMESH_COOLDOWN steps
-        threshold = min(self.cfg.numerics.remesh_min_angle,
-                        REMESH_DEGRADATION * self.state.get("remesh_angle_after", math.inf))
-        if q["min_angle"] < threshold and since >= REMESH_COOLDOWN:
-            return f"min angle {q['min_angle']:.1f}°"
-        return None
 
     def _courant_rate(self) -> float:
         """max_K max_{vertices of K} |uⁿ|/h_K on the current mesh (global) [1/s]: uⁿ
@@ -293,7 +276,7 @@ class Simulation:
         t = self.cfg.time
         # an augmented Lagrangian iteration is one back-substitution, not a factorization:
         # measured 3 ms against 15 ms per Picard iteration on the 2 cm collapse
-        scale = AL_ITERATION_SCALE if self.cfg.numerics.method == "augmented_lagrangian" else 1
+        scale = self.disc.flow.iteration_scale
         if iterations <= FEW_ITERATIONS * scale:
             dt *= STEP_GROWTH
         elif iterations > MANY_ITERATIONS * scale:
@@ -303,33 +286,29 @@ class Simulation:
     def _step(self) -> tuple[float, int, float]:
         """Advance one step; returns (dt, iterations, residual)."""
         cfg, st = self.cfg, self.state
-        reason = self._needs_remesh()
+        reason = self.domain.needs_remesh(self.disc, st)
         if reason:
             self._remesh(reason)
-        dt = min(st["dt_target"], cfg.time.end_time - st["t"])
+        dt = min(st.dt_target, cfg.time.end_time - st.t)
         rate = self._courant_rate()
         if cfg.time.adaptive and rate > 0:
             dt = min(dt, max(cfg.time.cfl / rate, cfg.time.dt_min))
-        motion = self.disc.motion
-        self.dt_limit = math.inf
-        if motion is not None:
-            t0 = time.perf_counter()
-            motion.compute()
-            self.ale_solves += 1
-            limit = self.dt_limit = motion.max_step(dt)
-            self.timings["mesh_motion"] += time.perf_counter() - t0
-            if limit < dt:
-                log.debug("t = %.4f s: dt limited by the mesh motion to %.2e s", st["t"], limit)
-            if limit < cfg.time.dt_min:
-                if st["step"] - st["last_remesh_step"] > 0:
-                    self._remesh(f"step limit {limit:.1e} s below dt_min")
-                    return self._step()
-                raise MeshError(f"mesh degenerate at t = {st['t']:.4f} s: the largest step that "
-                                f"keeps every cell valid is {limit:.1e} s < time.dt_min, even after a remesh")
-            dt = min(dt, limit)
+        domain = self.domain
+        t0 = time.perf_counter()
+        limit = self.dt_limit = domain.limit_step(self.disc, dt)
+        self.timings["mesh_motion"] += time.perf_counter() - t0
+        if limit < dt:
+            log.debug("t = %.4f s: dt limited by the mesh motion to %.2e s", st.t, limit)
+        if limit < cfg.time.dt_min:
+            if st.step - st.last_remesh_step > 0:
+                self._remesh(f"step limit {limit:.1e} s below dt_min")
+                return self._step()
+            raise MeshError(f"mesh degenerate at t = {st.t:.4f} s: the largest step that "
+                            f"keeps every cell valid is {limit:.1e} s < time.dt_min, even after a remesh")
+        dt = min(dt, limit)
         spent = 0  # iterations of failed attempts of this step (they cost as much)
         while True:
-            old_x, landed = motion.move(dt) if motion is not None else (None, 0)
+            token, landed = domain.move(self.disc, dt)
             before_landing = self.disc
             if landed:
                 self._rebuild(retag_landed(self.disc.tagged))
@@ -339,101 +318,97 @@ class Simulation:
             spent += report.iterations
             if report.converged:
                 if landed:
-                    st["landings"] = st.get("landings", 0) + landed
-                    log.debug("t = %.4f s: %d nose node(s) landed on the bed", st["t"] + dt, landed)
+                    st.landings = (st.landings or 0) + landed
+                    log.debug("t = %.4f s: %d nose node(s) landed on the bed", st.t + dt, landed)
                     self._retire(before_landing)
                 break
-            if old_x is not None:
-                self.disc.mesh.geometry.x[:] = old_x
+            domain.undo(self.disc, token)
             if landed:
                 self._retire(self.disc)
                 self.disc = before_landing
-                motion = self.disc.motion
             self.disc.flow.reset_iterate()
             if dt / 2 < cfg.time.dt_min:
                 raise ConvergenceError(
-                    f"the fixed point did not converge at t = {st['t']:.4f} s even with dt = "
+                    f"the fixed point did not converge at t = {st.t:.4f} s even with dt = "
                     f"{dt:.1e} s (time.dt_min = {cfg.time.dt_min:g}): {report.message}, residual "
                     f"{report.residual:.2e}; try a larger numerics.max_iterations or numerics.epsilon")
             log.warning("t = %.4f s: no convergence with dt = %.2e s (%s, residual %.2e); halving dt",
-                        st["t"], dt, report.message, report.residual)
+                        st.t, dt, report.message, report.residual)
             dt /= 2
-            if motion is not None:
-                motion.compute()
-                self.ale_solves += 1
+            domain.recompute(self.disc)
         self.disc.flow.accept_step()
         self.courant = dt * rate
-        st["t"] += dt
-        st["step"] += 1
+        st.t += dt
+        st.step += 1
         if cfg.time.adaptive:
-            st["dt_target"] = self._next_target(dt, report.iterations)
+            st.dt_target = self._next_target(dt, report.iterations)
             return dt, spent, report.residual
-        st["dt_target"] = min(cfg.time.dt, 2.0 * dt) if dt < st["dt_target"] else st["dt_target"]
-        if st["dt_target"] < cfg.time.dt:
-            st["dt_target"] = min(cfg.time.dt, 1.5 * st["dt_target"])
+        st.dt_target = min(cfg.time.dt, 2.0 * dt) if dt < st.dt_target else st.dt_target
+        if st.dt_target < cfg.time.dt:
+            st.dt_target = min(cfg.time.dt, 1.5 * st.dt_target)
         return dt, spent, report.residual
 
     # ------------------------------------------------------------------ loop
     def run(self, observers=()) -> dict:
-        """The time loop. Each ``observer(sim)`` is called after every accepted step; one that
-        returns True ends the run cleanly after that step (files written as at rest, status
-        "stopped_by_observer"). Under MPI it must return the same value on every rank."""
+        """The time loop. Each ``observer(sim)`` is called after every accepted step, before
+        the ``step_accepted`` subscribers (``loop``); one that returns True ends the run
+        cleanly after that step (files written as at rest, status "stopped_by_observer").
+        Under MPI it must return the same value on every rank."""
         cfg, st = self.cfg, self.state
         progress = Progress(self.comm, cfg.time.end_time, cfg.time.output_every, self.quiet)
         previous = signal.signal(signal.SIGTERM, _raise_interrupt)
         try:
-            while st["t"] < cfg.time.end_time - 1e-12:
+            while st.t < cfg.time.end_time - 1e-12:
                 dt, iterations, residual = self._step()
                 self.iteration_counts.append(iterations)
                 self.step_sizes.append(dt)
                 m = self.disc.measures()
                 self._check_energy(m)
-                row = {"step": st["step"], "t": st["t"], "dt": dt, "dt_limit": self.dt_limit,
+                row = {"step": st.step, "t": st.t, "dt": dt, "dt_limit": self.dt_limit,
                        "courant": self.courant,
                        "iterations": iterations,
-                       "residual": residual, "remeshes": st["remeshes"],
+                       "residual": residual, "remeshes": st.remeshes,
                        "wall_time": time.perf_counter() - self.wall0, **m}
                 self.diagnostics.write(row)
-                stop = False
-                for observe in observers:
-                    stop = bool(observe(self)) or stop
-                progress.update(st["step"], st["t"], dt, iterations, m["front"])
+                stop = any([bool(observe(self)) for observe in observers]
+                           + [bool(v) for v in self.events.emit("step_accepted", self, row)])
+                progress.update(st.step, st.t, dt, iterations, m["front"])
                 resting = m["max_speed"] < cfg.time.rest_speed
-                st["rest_time"] = st["rest_time"] + dt if resting else 0.0
-                at_rest = resting and st["rest_time"] >= cfg.time.rest_duration
-                if st["step"] % cfg.time.output_every == 0 or at_rest or stop:
+                st.rest_time = st.rest_time + dt if resting else 0.0
+                at_rest = resting and st.rest_time >= cfg.time.rest_duration
+                if self.field_export.due(st.step) or at_rest or stop:
                     self._output()
-                if st["step"] % cfg.time.checkpoint_every == 0 or at_rest or stop:
+                if self.checkpoint_export.due(st.step) or at_rest or stop:
                     self._checkpoint()
                 if at_rest or stop:
-                    st["status"] = "at_rest" if at_rest else "stopped_by_observer"
+                    st.status = "at_rest" if at_rest else "stopped_by_observer"
                     break
             else:
-                st["status"] = "end_time"
+                st.status = "end_time"
                 self._output()
                 self._checkpoint()
         except KeyboardInterrupt:
             self._finish("interrupted", progress)
-            raise Interrupted(f"stopped at t = {st['t']:.4f} s; the run directory is valid, "
+            raise Interrupted(f"stopped at t = {st.t:.4f} s; the run directory is valid, "
                               f"continue with --resume") from None
         except (ConvergenceError, MeshError) as exc:
+            self.events.emit("failure", self, exc)
             self._finish("failed", progress, error=str(exc))
             raise
         finally:
             signal.signal(signal.SIGTERM, previous)
-        return self._finish(st["status"], progress)
+        return self._finish(st.status, progress)
 
     def _finish(self, status: str, progress: Progress, error: str | None = None) -> dict:
         progress.close()
-        if self.vtx is not None:
-            self.vtx.close()
+        self.field_export.close()
         self.diagnostics.close()
         its = self.iteration_counts
         m = self.disc.measures()
         summary = {
-            "status": status, "t": self.state["t"], "steps": self.state["step"],
-            "remeshes": self.state["remeshes"], "front": m["front"], "max_height": m["max_height"],
-            "area": m["area"], "area_drift": (m["area"] - self.state["area0"]) / self.state["area0"],
+            "status": status, "t": self.state.t, "steps": self.state.step,
+            "remeshes": self.state.remeshes, "front": m["front"], "max_height": m["max_height"],
+            "area": m["area"], "area_drift": (m["area"] - self.state.area0) / self.state.area0,
             "kinetic_energy": m["kinetic_energy"], "min_angle": m["min_angle"],
             "min_detJ": m["min_detJ"],
             "mean_iterations": float(np.mean(its)) if its else 0.0,

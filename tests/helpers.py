@@ -59,3 +59,17 @@ def run_cli(*args, timeout=600, **kw) -> subprocess.CompletedProcess:
 
 def pvpython() -> str | None:
     return shutil.which("pvpython")
+
+
+def simulation(config, overrides=(), run_dir=None, comm=None, resume=False, events=None):
+    """The one way tests build a run: a quiet Simulation of ``config`` (a file name in
+    configs/ or a path) with ``--set`` style overrides, on ``comm`` (COMM_WORLD)."""
+    from mpi4py import MPI
+
+    from dpcollapse.config import load_config
+    from dpcollapse.simulation import Simulation
+
+    path = Path(config) if Path(config).is_absolute() else ROOT / "configs" / config
+    cfg = load_config(path, list(overrides))
+    return Simulation(cfg, run_dir, quiet=True, resume=resume, comm=comm or MPI.COMM_WORLD,
+                      events=events)

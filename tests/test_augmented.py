@@ -6,11 +6,9 @@ import pytest
 from mpi4py import MPI
 
 from dpcollapse import compat
-from dpcollapse.config import load_config
 from dpcollapse.io.diagnostics import read_diagnostics
-from dpcollapse.simulation import Simulation
 from dpcollapse.validation.plug import PlugObserver, reference_solution
-from tests.helpers import ROOT, paraview_summaries, run_cli
+from tests.helpers import ROOT, paraview_summaries, run_cli, simulation
 
 AL = ["numerics.method=augmented_lagrangian"]
 #: Short coarse collapse that remeshes once (the smallest-angle trigger is raised).
@@ -19,8 +17,7 @@ SHORT = AL + ["geometry.mesh_size=0.04", "time.end_time=0.05", "numerics.remesh_
 
 
 def _sim(config, overrides, run_dir, comm=MPI.COMM_WORLD, resume=False):
-    cfg = load_config(ROOT / "configs" / config, overrides)
-    return Simulation(cfg, run_dir, quiet=True, resume=resume, comm=comm)
+    return simulation(config, overrides, run_dir, comm=comm, resume=resume)
 
 
 def test_plug_matches_reference_with_exactly_rigid_static_layer(tmp_path):

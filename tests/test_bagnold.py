@@ -81,8 +81,8 @@ def test_observer_returning_true_stops_the_run_cleanly(tmp_path):
     calls = []
 
     def stop_at_third(s):
-        calls.append(s.state["step"])
-        return s.state["step"] == 3
+        calls.append(s.state.step)
+        return s.state.step == 3
 
     summary = sim.run(observers=[stop_at_third, lambda s: None])
     assert calls == [1, 2, 3] and summary["status"] == "stopped_by_observer" and summary["steps"] == 3

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from dpcollapse.bench import (COLUMNS, PARTS, Instrument, _simulation_class, default_configs_dir,
-                              fitted_exponent, load_case_config)
+from dpcollapse.bench import (COLUMNS, PARTS, Instrument, default_configs_dir,
+                              fitted_exponent, instrumented_simulation, load_case_config)
 from dpcollapse.cli import main
 
 
@@ -81,13 +81,14 @@ def test_fitted_exponent():
 
 
 def test_instrumentation_changes_nothing(tmp_path, monkeypatch):
-    """Timing wrappers (with the explicit factorization) give bit-identical diagnostics, and
-    every new discretization (here: a remesh every 5 steps) is instrumented."""
-    from dpcollapse import simulation
+    """A run whose discretizations a benchmark tracks (event ``discretization``) gives
+    bit-identical diagnostics, and every new discretization (here: a remesh every 5 steps)
+    is tracked, with its solves, factorizations and their times."""
+    from dpcollapse.domain import moving
     from dpcollapse.simulation import Simulation
 
     # a remesh every 5 steps: an unreachable threshold, and no lowering of it after a remesh
-    monkeypatch.setattr(simulation, "REMESH_DEGRADATION", math.inf)
+    monkeypatch.setattr(moving, "REMESH_DEGRADATION", math.inf)
 
     cfg = load_case_config(default_configs_dir(), "rigid.yaml",
                            ("geometry.mesh_size=0.04", "time.end_time=0.012",
@@ -96,11 +97,11 @@ def test_instrumentation_changes_nothing(tmp_path, monkeypatch):
     plain.run()
     plain.disc.destroy()
     instrument = Instrument()
-    sim = _simulation_class()(instrument, cfg, tmp_path / "timed", quiet=True)
+    sim = instrumented_simulation(instrument, cfg, tmp_path / "timed", quiet=True)
     sim.run()
     sim.disc.destroy()
-    assert sim.state["remeshes"] >= 2
-    assert instrument.wrapped >= 1 + sim.state["remeshes"]
+    assert sim.state.remeshes >= 2
+    assert instrument.wrapped >= 1 + sim.state.remeshes
     assert instrument.linear_solves == instrument.factorizations == sum(sim.iteration_counts)
     assert instrument.times["factorization"] > 0
 
@@ -109,7 +110,7 @@ def test_instrumentation_changes_nothing(tmp_path, monkeypatch):
         return np.array([[float(v) for k, v in r.items() if k != "wall_time"] for r in rows])
 
     a, b = diagnostics("plain"), diagnostics("timed")
-    assert a.shape == b.shape and a.shape[0] == sim.state["step"]
+    assert a.shape == b.shape and a.shape[0] == sim.state.step
     assert np.array_equal(a, b, equal_nan=True)
 
 

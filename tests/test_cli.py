@@ -143,7 +143,7 @@ def test_run_interrupted(fake_module, capsys, tmp_path):
 
 
 def test_mesh_default_out(fake_module):
-    calls = fake_module("dpcollapse.geometry.trapezoid", "write_msh")
+    calls = fake_module("dpcollapse.scenes.registry", "write_msh")
     assert main(["mesh", RIGID]) == 0
     assert calls[0][1][1] == Path("meshes/rigid.msh")
 

@@ -10,12 +10,12 @@ from mpi4py import MPI
 from dpcollapse.cli import main
 from dpcollapse.config import load_config
 from dpcollapse.discretization import flow_parameters, initial_velocity, picard_settings
-from dpcollapse.geometry.trapezoid import build_mesh
 from dpcollapse.io.diagnostics import read_diagnostics
+from dpcollapse.models.stokes.regularized import RegularizedFlow
+from dpcollapse.scenes.registry import build_mesh
 from dpcollapse.simulation import Simulation
 from dpcollapse.solvers.iterative import BlockSolver
 from dpcollapse.solvers.linear import DirectSolver
-from dpcollapse.solvers.regularized import RegularizedFlow
 from tests.helpers import ROOT
 
 RIGID = ROOT / "configs" / "rigid.yaml"

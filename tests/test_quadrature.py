@@ -6,7 +6,7 @@ from mpi4py import MPI
 
 from dpcollapse.config import load_config
 from dpcollapse.discretization import Discretization
-from dpcollapse.geometry.trapezoid import build_mesh
+from dpcollapse.scenes.registry import build_mesh
 from tests.helpers import ROOT
 
 NONLINEAR = ("convection", "viscoplastic", "bed_friction", "wall_friction")

@@ -5,15 +5,13 @@ import numpy as np
 import pytest
 
 from dpcollapse.ale.quality import courant_rate
-from dpcollapse.config import load_config
 from dpcollapse.io.diagnostics import read_diagnostics
-from dpcollapse.simulation import FEW_ITERATIONS, STEP_GROWTH, Simulation
-from tests.helpers import ROOT
+from dpcollapse.simulation import FEW_ITERATIONS, STEP_GROWTH
+from tests.helpers import simulation
 
 
 def _sim(config, overrides, run_dir, resume=False):
-    cfg = load_config(ROOT / "configs" / config, overrides)
-    return Simulation(cfg, run_dir, quiet=True, resume=resume)
+    return simulation(config, overrides, run_dir, resume=resume)
 
 
 def test_courant_rate_hand_values():
@@ -83,7 +81,7 @@ def test_adaptive_resume_continues_the_run(tmp_path):
     _sim("rigid.yaml", over, tmp_path / "full").run()
     full = read_diagnostics(tmp_path / "full" / "diagnostics.csv")
     sim = _sim("rigid.yaml", over, tmp_path / "split")
-    assert sim.run(observers=[lambda s: s.state["step"] >= 12])["status"] == "stopped_by_observer"
+    assert sim.run(observers=[lambda s: s.state.step >= 12])["status"] == "stopped_by_observer"
     _sim("rigid.yaml", over, tmp_path / "split", resume=True).run()
     resumed = read_diagnostics(tmp_path / "split" / "diagnostics.csv")
     assert len(resumed["t"]) == len(full["t"]) > 12

@@ -10,7 +10,8 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.ale.quality import max_safe_step, min_angles, signed_areas
 from dpcollapse.forms.mesh_velocity import mesh_velocity_forms
-from dpcollapse.geometry.mesher import BED, SURFACE, WALL
+from dpcollapse.geometry.mesher import BED, SURFACE
+from dpcollapse.scenes.base import SOLID, BoundaryKind
 from dpcollapse.solvers.assembly import LinearSystem, zero_dirichlet
 from dpcollapse.solvers.linear import DirectSolver
 
@@ -34,8 +35,10 @@ class MeshMotion:
         self.w = flow.mesh_velocity
         Vw = self.w.function_space
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=flow.tagged.facet_tags)
+        surface = [b.tag for b in flow.params.of_kind(BoundaryKind.FREE_SURFACE)]
+        ds_surface = sum((ds(tag) for tag in surface[1:]), ds(surface[0]))
         a, L = mesh_velocity_forms(ufl.TrialFunction(Vw), ufl.TestFunction(Vw), flow.u_old,
-                                   fem.Constant(mesh, compat.ScalarType(penalty)), ds(SURFACE))
+                                   fem.Constant(mesh, compat.ScalarType(penalty)), ds_surface)
         self.system = LinearSystem(a, L, self._slip_bcs(Vw))
         self.solver = DirectSolver(mesh.comm, linear_solver, prefix="dpc_ale_")
         # geometry node -> dof of Vw (P1 on a P1 mesh: same local vertex order per cell)
@@ -49,9 +52,10 @@ class MeshMotion:
         self._bed_nodes = _tagged_nodes(mesh, ft, BED)
 
     def _slip_bcs(self, Vw):
-        """w·n = 0 on the bed (w_y) and the wall (w_x)."""
+        """w·n = 0 on every solid side (w_y on the bed y = 0, w_x on the wall x = 0): nodes
+        slide along it, also where the flow sticks (no slip)."""
         ft = self.flow.tagged.facet_tags
-        return [zero_dirichlet(Vw.sub(comp), ft, tag) for tag, comp in ((BED, 1), (WALL, 0))]
+        return [zero_dirichlet(Vw.sub(b.normal_axis()), ft, b.tag) for b in self.flow.params.of_kind(*SOLID)]
 
     def compute(self) -> None:
         """Solve for w from the accepted velocity uⁿ on the current mesh."""
@@ -127,7 +131,7 @@ def retag_landed(tagged):
     nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
     on_bed = np.all(mesh.geometry.x[nodes, 1] == 0.0, axis=1)
     values = np.where((ft.values == SURFACE) & on_bed, BED, ft.values)
-    return TaggedMesh(mesh, compat.meshtags(mesh, 1, ft.indices, values))
+    return TaggedMesh(mesh, compat.meshtags(mesh, 1, ft.indices, values), tagged.cell_tags)
 
 
 def cell_orientation(mesh) -> np.ndarray:

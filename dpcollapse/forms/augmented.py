@@ -24,8 +24,9 @@ from __future__ import annotations
 
 import ufl
 
+from dpcollapse.forms import momentum
 from dpcollapse.forms.friction import tangential
-from dpcollapse.rheology.drucker_prager import strain_rate
+from dpcollapse.rheology.kinematics import strain_rate
 
 
 def augmented_viscous(r, u, v, dx=ufl.dx):
@@ -56,3 +57,36 @@ def volume_augmentation(r_w, u, v, dx=ufl.dx):
 def volume_multiplier(traction, slip, r_w, v, dx=ufl.dx):
     """∫ (σ_w + r_w δ_w)·v dx (right-hand side)."""
     return ufl.inner(traction + r_w * slip, v) * dx
+
+
+def augmented_terms(*, rho, dt, body_force, r, u_old, mesh_velocity, sigma, gamma, trial, test,
+                    n=None, ds_friction=None, r_f=None, traction=None, slip=None,
+                    r_w=None, side_traction=None, side_slip=None) -> tuple[dict, dict]:
+    """(lhs, rhs): the named terms of step 1 (the module docstring's equation).
+
+    lhs: "inertia", "convection" (by uⁿ − w), "augmented_viscous", "pressure",
+    "incompressibility", and "boundary_augmentation" when ``ds_friction`` (the friction
+    walls) is given, "volume_augmentation" when ``r_w`` is given;
+    rhs: "gravity", "previous_velocity", "multiplier_stress", and "boundary_multiplier",
+    "volume_multiplier" likewise. Σ lhs = Σ rhs in the order of the dictionaries.
+    """
+    (u, p), (v, q) = trial, test
+    lhs = {
+        "inertia": momentum.inertia(rho, dt, u, v),
+        "convection": momentum.convection(rho, u_old, mesh_velocity, u, v),
+        "augmented_viscous": augmented_viscous(r, u, v),
+        "pressure": momentum.pressure(p, v),
+        "incompressibility": momentum.incompressibility(q, u),
+    }
+    rhs = {
+        "gravity": momentum.gravity(rho, body_force, v),
+        "previous_velocity": momentum.previous_velocity(rho, dt, u_old, v),
+        "multiplier_stress": multiplier_stress(sigma, gamma, r, v),
+    }
+    if ds_friction is not None:
+        lhs["boundary_augmentation"] = boundary_augmentation(r_f, u, v, n, ds_friction)
+        rhs["boundary_multiplier"] = boundary_multiplier(traction, slip, r_f, v, n, ds_friction)
+    if r_w is not None:
+        lhs["volume_augmentation"] = volume_augmentation(r_w, u, v)
+        rhs["volume_multiplier"] = volume_multiplier(side_traction, side_slip, r_w, v)
+    return lhs, rhs

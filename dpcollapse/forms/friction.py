@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import ufl
 
-from dpcollapse.rheology.drucker_prager import positive_part
+from dpcollapse.rheology.kinematics import positive_part
 
 
 def tangential(u, n):

@@ -14,7 +14,7 @@ from __future__ import annotations
 import ufl
 from ufl.domain import extract_unique_domain
 
-from dpcollapse.rheology.drucker_prager import strain_rate
+from dpcollapse.rheology.kinematics import strain_rate
 
 
 def mesh_velocity_forms(w, z, u, penalty, ds_surface):

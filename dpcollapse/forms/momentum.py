@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import ufl
 
-from dpcollapse.rheology.drucker_prager import strain_rate
+from dpcollapse.rheology.kinematics import strain_rate
 
 
 def inertia(rho, dt, u, v, dx=ufl.dx):

@@ -13,7 +13,16 @@ from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
 from dpcollapse import compat
-from dpcollapse.geometry.mesher import BED, LEFT, RIGHT, SURFACE, TaggedMesh
+from dpcollapse.geometry.mesher import (
+    BED,
+    DOMAIN,
+    LEFT,
+    RIGHT,
+    SURFACE,
+    TAG_NAMES,
+    TaggedMesh,
+    gmsh_session,
+)
 
 
 def layer_mesh(comm: MPI.Comm, length: float, thickness: float, mesh_size: float) -> TaggedMesh:
@@ -36,4 +45,32 @@ def layer_mesh(comm: MPI.Comm, length: float, thickness: float, mesh_size: float
     values = np.concatenate(values)
     indices, first = np.unique(indices, return_index=True)  # corner facets: keep one tag
     mesh.topology.create_connectivity(fdim, mesh.topology.dim)
-    return TaggedMesh(mesh, compat.meshtags(mesh, fdim, indices, values[first]))
+    cells = np.arange(compat.num_owned_cells(mesh), dtype=np.int32)
+    return TaggedMesh(mesh, compat.meshtags(mesh, fdim, indices, values[first]),
+                      compat.meshtags(mesh, fdim + 1, cells, np.full(len(cells), DOMAIN)))
+
+
+def write_layer_msh(path, length: float, thickness: float, mesh_size: float) -> None:
+    """Write the layer as a structured gmsh mesh (the divisions of ``layer_mesh``; matching
+    nodes on x = 0 and x = L) with the physical tags BED, RIGHT, SURFACE, LEFT, DOMAIN."""
+    nx = max(1, round(length / mesh_size))
+    ny = max(1, round(thickness / mesh_size))
+    corners = [(0.0, 0.0), (length, 0.0), (length, thickness), (0.0, thickness)]
+    sides = [(BED, nx), (RIGHT, ny), (SURFACE, nx), (LEFT, ny)]   # side i: corner i -> i + 1
+    with gmsh_session() as gmsh:
+        gmsh.model.add("layer")
+        geo = gmsh.model.geo
+        points = [geo.addPoint(x, y, 0.0, mesh_size) for x, y in corners]
+        lines = [geo.addLine(points[i], points[(i + 1) % 4]) for i in range(4)]
+        for line, (_, n) in zip(lines, sides):
+            geo.mesh.setTransfiniteCurve(line, n + 1)
+        surface = geo.addPlaneSurface([geo.addCurveLoop(lines)])
+        geo.mesh.setTransfiniteSurface(surface)
+        geo.synchronize()
+        for line, (tag, _) in zip(lines, sides):
+            gmsh.model.addPhysicalGroup(1, [line], tag)
+            gmsh.model.setPhysicalName(1, tag, TAG_NAMES[tag])
+        gmsh.model.addPhysicalGroup(2, [surface], DOMAIN)
+        gmsh.model.setPhysicalName(2, DOMAIN, "granular_mass")
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))

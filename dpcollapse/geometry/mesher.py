@@ -31,10 +31,13 @@ BOUNDARY_GRADING = 2.0
 
 @dataclass
 class TaggedMesh:
-    """A DOLFINx mesh with its boundary facets tagged BED, WALL or SURFACE."""
+    """A DOLFINx mesh with its boundary facets tagged (BED, WALL, SURFACE, LEFT, RIGHT) and
+    its cells tagged by material region (DOMAIN for the granular mass: the initial mesh, a
+    remesh and a landing rebuild keep them; a mesh read back from a checkpoint has None)."""
 
     mesh: object
     facet_tags: object
+    cell_tags: object = None
 
 
 @contextmanager
@@ -132,11 +135,11 @@ def mesh_polygon(comm: MPI.Comm, points: np.ndarray | None, edge_tags: np.ndarra
     if comm.rank == 0:
         with gmsh_session() as gmsh:
             build_polygon_model(gmsh, np.asarray(points), np.asarray(edge_tags), size)
-            mesh, _, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
+            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
     else:
-        mesh, _, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
+        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
     mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
-    return TaggedMesh(mesh, facet_tags)
+    return TaggedMesh(mesh, facet_tags, cell_tags)
 
 
 def write_polygon_msh(path, points: np.ndarray, edge_tags: np.ndarray, mesh_size: float,
@@ -156,8 +159,8 @@ def read_msh(comm: MPI.Comm, path) -> TaggedMesh:
     if comm.rank == 0:
         with gmsh_session() as gmsh:
             gmsh.merge(str(path))
-            mesh, _, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
+            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
     else:
-        mesh, _, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
+        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
     mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
-    return TaggedMesh(mesh, facet_tags)
+    return TaggedMesh(mesh, facet_tags, cell_tags)

@@ -9,13 +9,10 @@ bed, free surface (flank and top) and wall.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
-from mpi4py import MPI
 
-from dpcollapse.geometry.mesher import (BED, SURFACE, WALL, TaggedMesh, mesh_polygon,
-                                        read_msh, write_polygon_msh)
+from dpcollapse.geometry.mesher import BED, SURFACE, WALL
 
 
 def trapezoid_polygon(height: float, base_length: float, flank_angle_deg: float):
@@ -24,31 +21,3 @@ def trapezoid_polygon(height: float, base_length: float, flank_angle_deg: float)
     points = np.array([[0.0, 0.0], [base_length, 0.0], [top, height], [0.0, height]])
     tags = np.array([BED, SURFACE, SURFACE, WALL], dtype=np.int32)
     return points, tags
-
-
-def _polygon(cfg):
-    g = cfg.geometry
-    return trapezoid_polygon(g.height, g.base_length, g.flank_angle)
-
-
-def build_mesh(cfg, comm: MPI.Comm = MPI.COMM_WORLD) -> TaggedMesh:
-    """The initial mesh of the scene: ``geometry.mesh_file`` if given, else the periodic
-    layer or the trapezoid."""
-    g = cfg.geometry
-    if g.mesh_file:
-        return read_msh(comm, g.mesh_file)
-    if g.shape == "layer":
-        from dpcollapse.geometry.layer import layer_mesh
-
-        return layer_mesh(comm, g.base_length, g.height, g.mesh_size)
-    points, tags = _polygon(cfg) if comm.rank == 0 else (None, None)
-    return mesh_polygon(comm, points, tags, g.mesh_size, g.surface_mesh_size)
-
-
-def write_msh(cfg, path: Path) -> Path:
-    """``dpcollapse mesh``: write the initial gmsh mesh so it can be inspected."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    points, tags = _polygon(cfg)
-    write_polygon_msh(path, points, tags, cfg.geometry.mesh_size, cfg.geometry.surface_mesh_size)
-    return path

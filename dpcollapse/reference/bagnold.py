@@ -37,7 +37,7 @@ __all__ = [
 
 def bagnold_inertial_number(law, theta: float) -> float:
     """I_θ = I0 (tanθ − μ_s)/(μ_2 − tanθ); ValueError unless μ_s < tanθ < μ_2 and κ0 = 0."""
-    if getattr(law, "cohesion", 0.0) > 0:
+    if law.cohesion > 0:
         raise ValueError(f"Bagnold profile needs cohesion = 0, got {law.cohesion}")
     t = math.tan(theta)
     if not (0 < theta < math.pi / 2) or not (law.mu_s < t < law.mu_2):

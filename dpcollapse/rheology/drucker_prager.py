@@ -12,23 +12,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 import ufl
 
+from dpcollapse.rheology.kinematics import frobenius_norm_sq, positive_part, strain_rate
 
-def positive_part(x):
-    """[x]_+ = max(x, 0) as UFL."""
-    return ufl.conditional(ufl.gt(x, 0), x, 0)
-
-
-def strain_rate(u):
-    """D(u) = (∇u + ∇uᵀ)/2."""
-    return ufl.sym(ufl.grad(u))
-
-
-def frobenius_norm_sq(tensor):
-    """|T|² = T:T."""
-    return ufl.inner(tensor, tensor)
+__all__ = ["DruckerPrager", "frobenius_norm_sq", "positive_part", "strain_rate"]
 
 
 @dataclass(frozen=True)
@@ -41,6 +31,11 @@ class DruckerPrager:
     viscosity: float
     friction_coefficient: float
     cohesion: float = 0.0
+
+    #: no cap: S = 2η + κ/|D|_ε is bounded below by 2η, not above
+    viscosity_cap: ClassVar[None] = None
+    #: η does not depend on (|D|, p)
+    rate_dependent: ClassVar[bool] = False
 
     def __post_init__(self):
         if not (self.cohesion >= 0 and math.isfinite(self.cohesion)):
@@ -58,6 +53,10 @@ class DruckerPrager:
         """η [Pa s]: the rate-dependent part σ' − κ D/|D| = 2η D, constant here."""
         return self.viscosity
 
+    def capped_rate_viscosity(self, u, p, epsilon):
+        """η [Pa s] (no cap)."""
+        return self.viscosity
+
     def secant_viscosity(self, u, p, epsilon):
         """The coefficient of D(v) in the Picard linearization: 2η + κ(p)/√(|D(u)|²+ε²)."""
         D = strain_rate(u)
@@ -66,3 +65,11 @@ class DruckerPrager:
     def deviatoric_stress(self, u, p, epsilon):
         """σ'(u, p) of the regularized law [Pa]."""
         return self.secant_viscosity(u, p, epsilon) * strain_rate(u)
+
+    def diagnostic_fields(self, u, p, epsilon) -> dict:
+        """None beyond the common ones."""
+        return {}
+
+    def well_posed_window(self) -> tuple[float, float] | None:
+        """Not a μ(I) law: no inertial-number window (None)."""
+        return None

@@ -43,7 +43,7 @@ from typing import ClassVar, Optional
 import numpy as np
 import ufl
 
-from dpcollapse.rheology.drucker_prager import frobenius_norm_sq, positive_part, strain_rate
+from dpcollapse.rheology.kinematics import frobenius_norm_sq, positive_part, strain_rate
 
 PRESSURE_FLOOR = 1e-10
 """Pressure [Pa] added to [p]_+ under square roots (I and the rate-dependent viscosity)."""
@@ -79,6 +79,8 @@ class MuI:
     viscosity_cap: Optional[float] = None
 
     pressure_floor: ClassVar[float] = PRESSURE_FLOOR
+    #: η_μI depends on |D| and p
+    rate_dependent: ClassVar[bool] = True
 
     def __post_init__(self):
         if not (_finite(self.mu_s) and self.mu_s > 0):
@@ -150,6 +152,13 @@ class MuI:
         rate = SQRT2 * ufl.sqrt(frobenius_norm_sq(D) + epsilon**2)
         return self.delta_mu * positive_part(p) / (rate + self.I0 * self._sqrt_p_over_rho(p) / self.grain_diameter)
 
+    def capped_rate_viscosity(self, u, p, epsilon):
+        """min(η_μI, η_max) [Pa s] (η_μI when viscosity_cap is None)."""
+        eta = self.rate_viscosity(u, p, epsilon)
+        if self.viscosity_cap is not None:
+            eta = ufl.min_value(eta, self.viscosity_cap)
+        return eta
+
     def secant_viscosity(self, u, p, epsilon):
         """Coefficient of D(v) in the Picard linearization:
         S = min(κ(p)/√(|D|²+ε²) + 2 η_μI, 2 η_max) (no min when viscosity_cap is None)."""
@@ -162,3 +171,14 @@ class MuI:
     def deviatoric_stress(self, u, p, epsilon):
         """σ'(u, p) = S(u, p) D(u) [Pa]."""
         return self.secant_viscosity(u, p, epsilon) * strain_rate(u)
+
+    def diagnostic_fields(self, u, p, epsilon) -> dict:
+        """The inertial number I per cell."""
+        return {"inertial_number": self.inertial_number(u, p, epsilon)}
+
+    def well_posed_window(self) -> tuple[float, float]:
+        """(I_min, I_max) of Barker et al. (2015) (``rheology.wellposedness``); (nan, nan)
+        when the law is nowhere well posed."""
+        from dpcollapse.rheology.wellposedness import well_posed_window
+
+        return well_posed_window(self)

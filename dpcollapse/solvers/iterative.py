@@ -33,6 +33,8 @@ at ε = 1e-6 FGMRES does not converge in 500 iterations there.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
@@ -101,11 +103,16 @@ class BlockSolver:
         self.solves = 0
         self.krylov_iterations = 0
         self.last_iterations = 0
+        self.solve_iterations: list[int] = []
+        #: set-up (operators, then the AMG hierarchies at the first solve) and solve time
+        self.seconds = {"factorization": 0.0, "solve": 0.0}
+        self._setup_due = False
 
     def set_operator(self, A: PETSc.Mat, refactor: bool = True) -> None:
         """Give a (re)assembled matrix: M_ν and L are reassembled from the current iterate
         and Δt, and the AMG hierarchies are rebuilt at the next solve (``refactor`` is
         accepted for the DirectSolver interface and ignored)."""
+        t0 = time.perf_counter()
         M = self.mass.assemble()
         self.schur_pc.update(M, self.laplacian.assemble())
         pc = self.ksp.getPC()
@@ -118,13 +125,23 @@ class BlockSolver:
             schur_pc.setPythonContext(self.schur_pc)
             self._python_pc_set = True
         self.factorizations += 1
+        self._setup_due = True
+        self.seconds["factorization"] += time.perf_counter() - t0
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
+        if self._setup_due:   # AMG hierarchies: part of the set-up time
+            t0 = time.perf_counter()
+            self._setup_due = False
+            self.ksp.setUp()
+            self.seconds["factorization"] += time.perf_counter() - t0
+        t0 = time.perf_counter()
         self.ksp.solve(b, x)
+        self.seconds["solve"] += time.perf_counter() - t0
         its = self.ksp.getIterationNumber()
         self.solves += 1
         self.krylov_iterations += its
         self.last_iterations = its
+        self.solve_iterations.append(its)
         reason = self.ksp.getConvergedReason()
         if reason < 0:
             raise RuntimeError(f"Krylov solve failed after {its} iterations (PETSc reason "

@@ -57,10 +57,10 @@ QUADRATURE_DEGREE = 10
 
 def _law(cfg: Config) -> MuI:
     """The config's μ(I) law; ConfigError unless the config describes a Bagnold flow."""
-    law = rheology(cfg)
-    if not isinstance(law, MuI):
+    if cfg.material.rheology != "mu_i":
         raise ConfigError(f"material.rheology = {cfg.material.rheology}: "
                           "validate bagnold needs mu_i")
+    law = rheology(cfg)
     if cfg.geometry.shape != "layer" or cfg.boundary.bed_condition != "no_slip":
         raise ConfigError(f"geometry.shape = {cfg.geometry.shape}, boundary.bed_condition = "
                           f"{cfg.boundary.bed_condition}: validate bagnold needs layer and no_slip")
@@ -129,7 +129,7 @@ class SteadyObserver:
         return math.sqrt(err / norm)
 
     def __call__(self, sim: Simulation) -> bool:
-        t = sim.state["t"]
+        t = sim.state.t
         self.iterations.append((t, sim.iteration_counts[-1]))
         if t < self._next - 1e-9:
             return False

@@ -107,14 +107,14 @@ def _run(sim: Simulation, observers=()) -> tuple[dict, float]:
     try:
         summary = sim.run(observers=list(observers))
     except (ConvergenceError, MeshError) as exc:  # a failing run is a result too
-        summary = {"status": f"failed: {exc}", "steps": sim.state["step"],
+        summary = {"status": f"failed: {exc}", "steps": sim.state.step,
                    "flow_factorizations": 0}
     return summary, time.perf_counter() - t0
 
 
 def _fill(run: Run, sim: Simulation, summary: dict, wall: float) -> None:
     run.wall_time = wall
-    run.steps = int(sim.state["step"])
+    run.steps = int(sim.state.step)
     run.iterations = int(np.sum(sim.iteration_counts))
     run.factorizations = int(summary.get("flow_factorizations", 0))
     run.status = str(summary["status"])
@@ -166,7 +166,7 @@ class CollapseObserver:
     def __call__(self, sim: Simulation) -> bool:
         if self._disc is not sim.disc:
             self._bind(sim.disc)
-        t = sim.state["t"]
+        t = sim.state.t
         x = sim.disc.mesh.geometry.x[:, 0]
         front = sim.comm.allreduce(float(x.max()) if len(x) else -np.inf, op=MPI.MAX)
         self.front.append((t, front))

@@ -87,7 +87,7 @@ class PlugObserver:
         return float(y[i - 1] + (THRESHOLD - s0) / (s1 - s0) * (y[i] - y[i - 1]))
 
     def __call__(self, sim: Simulation) -> None:
-        t, dt, comm = sim.state["t"], sim.cfg.time.dt, sim.comm
+        t, dt, comm = sim.state.t, sim.cfg.time.dt, sim.comm
         speed = np.linalg.norm(self.flow.u_old.x.array.reshape(-1, 2), axis=1)
         self.interface.append((t, self._interface(speed, comm)))
         vmax = comm.allreduce(float(speed.max()) if len(speed) else 0.0, op=MPI.MAX)

@@ -19,7 +19,7 @@ Stop when the multiplier residuals and the velocity change are all small::
     ‖u^k − u^{k−1}‖ max(1, ρ/(1 − ρ)) ≤ rtol ‖u^k‖ + atol
 
 (ρ the observed contraction of successive velocity increments: the distance to the limit
-of a linearly converging iteration, as in ``solvers.regularized``)
+of a linearly converging iteration, as in ``models.stokes.regularized``)
 (root mean squares over Ω, Γ and the velocity dofs; ℓ = √|Ω|). The rigid zone is where
 γ̇ = 0 exactly. Multipliers are carried from step to step (warm start); on the moving mesh
 their nodal values move with the nodes, like uⁿ.
@@ -38,14 +38,20 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from dpcollapse import compat
-from dpcollapse.forms import augmented, momentum
-from dpcollapse.geometry.mesher import BED, WALL
-from dpcollapse.rheology.drucker_prager import DruckerPrager, strain_rate
+from dpcollapse.forms import augmented
+from dpcollapse.models.stokes.regularized import PicardSettings, RegularizedFlow
+from dpcollapse.models.stokes.state import (
+    FlowParameters,
+    StepReport,
+    StokesState,
+    contraction,
+    distance_to_limit,
+)
+from dpcollapse.rheology.kinematics import strain_rate
+from dpcollapse.scenes.base import BoundaryKind
 from dpcollapse.solvers import al_projection as local
 from dpcollapse.solvers.anderson import Anderson
-from dpcollapse.solvers.regularized import (FlowParameters, PicardSettings, RegularizedFlow, StepReport,
-                                           contraction, distance_to_limit)
-
+from dpcollapse.solvers.linear import DirectSolver
 
 #: Polynomial degree of the discontinuous multiplier space (γ̇, σ') and of the nodes where
 #: the local steps are taken.
@@ -66,7 +72,7 @@ class AugmentedSettings:
     epsilon_friction: float = 1e-6  # the first step's regularized start [m/s]
     linear_solver: str = "mumps"
     anderson_depth: int = 0        # Anderson acceleration of the multiplier iteration
-    reuse_factorization: bool = False  # (unused: the operator is fixed within a step)
+    reuse_factorization: bool = False  # GMRES on the LU (the operator is fixed within a step anyway)
 
 
 def default_augmentation(density: float, gravity: float, height: float) -> tuple[float, float, float]:
@@ -79,16 +85,44 @@ def default_augmentation(density: float, gravity: float, height: float) -> tuple
     return r, 10.0 * r / height, r / height**2
 
 
-class AugmentedLagrangianFlow(RegularizedFlow):
+def augmented_settings(cfg) -> AugmentedSettings:
+    """Settings of the augmented Lagrangian; r, r_f default to 2ρ√g h0^{3/2} and 10 r/h0."""
+    n, m, h = cfg.numerics, cfg.material, cfg.geometry.height
+    r, r_f, r_w = default_augmentation(m.density, m.gravity, h)
+    if n.augmentation is not None:
+        r, r_w = n.augmentation, n.augmentation / h**2
+        r_f = 10.0 * n.augmentation / h
+    if n.augmentation_friction is not None:
+        r_f = n.augmentation_friction
+    return AugmentedSettings(r, r_f, r_w, n.nonlinear_rtol, n.nonlinear_atol, n.augmented_max_iterations,
+                             n.epsilon, n.epsilon_friction, n.linear_solver, n.anderson_depth)
+
+
+class AugmentedLagrangianFlow(StokesState):
     """Spaces, state, multipliers and solvers of the augmented Lagrangian flow on one mesh.
 
-    Same interface as :class:`RegularizedFlow` (solution, iterate, u_old, mesh_velocity,
-    solve_step, accept_step, reset_iterate), plus the multipliers ``sigma`` (σ'), ``gamma``
-    (γ̇) on DG2 tensors and ``traction`` (σ_T), ``slip`` (δ) on the P2 velocity space.
+    The fields of ``models.stokes.state`` (solution, iterate, u_old, mesh_velocity), plus
+    the multipliers ``sigma`` (σ'), ``gamma`` (γ̇) on DG2 tensors and ``traction`` (σ_T),
+    ``slip`` (δ) on the P2 velocity space.
     """
 
+    #: its ``numerics.method``
+    method = "augmented_lagrangian"
+    #: an iteration is one back-substitution, not a factorization (measured 3 ms against
+    #: 15 ms per Picard iteration on the 2 cm collapse): the adaptive step's thresholds on
+    #: the iteration count are this many times those of the regularized model
+    iteration_scale = 5
+
+    @classmethod
+    def from_config(cls, tagged, cfg, params: FlowParameters) -> AugmentedLagrangianFlow:
+        return cls(tagged, params, augmented_settings(cfg))
+
     def __init__(self, tagged, params: FlowParameters, settings: AugmentedSettings):
-        super().__init__(tagged, params, settings)
+        super().__init__(tagged, params)
+        self.settings = settings
+        self._build_forms()
+        self.solver = DirectSolver(self.comm, settings.linear_solver, prefix="dpc_flow_",
+                                   krylov=settings.reuse_factorization)
         #: False until a pressure field exists (initial state): the first step then iterates
         #: the yield limit κ(p) to convergence instead of lagging it
         self.pressure_known = False
@@ -137,35 +171,26 @@ class AugmentedLagrangianFlow(RegularizedFlow):
         # trace in γ̇, σ' would trade off against p (and so κ(p)) and stall the iteration
         self._rate_expr = compat.expression(ufl.dev(strain_rate(u_h)), self.T)
         self._kappa_expr = compat.expression(rheo.yield_stress(p_h), self.S)
-        if isinstance(rheo, DruckerPrager):
-            self._eta_expr = None
-            self.eta.x.array[:] = rheo.viscosity
-        else:  # μ(I): η_μI(|D|_ε, p), capped at η_max when given
-            eta = rheo.rate_viscosity(u_h, p_h, s.epsilon)
-            if getattr(rheo, "viscosity_cap", None) is not None:
-                eta = ufl.min_value(eta, rheo.viscosity_cap)
+        eta = rheo.capped_rate_viscosity(u_h, p_h, s.epsilon)  # η(|D|_ε, p), capped at η_max
+        if rheo.rate_dependent:
             self._eta_expr = compat.expression(eta, self.S)
+        else:  # a constant: set once
+            self._eta_expr = None
+            self.eta.x.array[:] = eta
 
-        self.terms = {
-            "inertia": momentum.inertia(rho, self.dt, u, v),
-            "convection": momentum.convection(rho, self.u_old, self.mesh_velocity, u, v),
-            "augmented_viscous": augmented.augmented_viscous(r, u, v),
-            "pressure": momentum.pressure(pr, v),
-            "incompressibility": momentum.incompressibility(q, u),
-        }
-        L = (momentum.gravity(rho, f, v) + momentum.previous_velocity(rho, self.dt, self.u_old, v)
-             + augmented.multiplier_stress(self.sigma, self.gamma, r, v))
-
-        # Coulomb walls: bed (unless no-slip) and left wall, where μ > 0
-        walls = [(p.mu_wall, WALL)]
-        if not p.bed_no_slip:
-            walls.insert(0, (p.mu_bed, BED))
-        walls = [(mu, tag) for mu, tag in walls if mu > 0 and self._has_tag(tag)]
+        # Coulomb walls of the scene (μ > 0) present on this mesh
+        walls = [b for b in p.boundaries if b.has_friction and self._has_tag(b.tag)]
         self.has_friction = bool(walls)
+        self.has_side_walls = bool(p.channel_width and p.mu_side > 0)
+        ds_f = sum((ds(b.tag) for b in walls[1:]), ds(walls[0].tag)) if walls else None
+        self.terms, rhs = augmented.augmented_terms(
+            rho=rho, dt=self.dt, body_force=f, r=r, u_old=self.u_old,
+            mesh_velocity=self.mesh_velocity, sigma=self.sigma, gamma=self.gamma,
+            trial=(u, pr), test=(v, q), n=n, ds_friction=ds_f, r_f=r_f, traction=self.traction,
+            slip=self.slip, r_w=r_w if self.has_side_walls else None,
+            side_traction=self.side_traction, side_slip=self.side_slip)
+        L = sum(rhs.values())
         if walls:
-            ds_f = sum((ds(tag) for _, tag in walls[1:]), ds(walls[0][1]))
-            self.terms["boundary_augmentation"] = augmented.boundary_augmentation(r_f, u, v, n, ds_f)
-            L = L + augmented.boundary_multiplier(self.traction, self.slip, r_f, v, n, ds_f)
             self._setup_friction_nodes(walls)
             vV = ufl.TestFunction(self.V)
             ones = vV[0] + vV[1]
@@ -174,11 +199,7 @@ class AugmentedLagrangianFlow(RegularizedFlow):
             self._weight_form = fem.form(ones * ds_f)                       # ∫ φ_i
             self._normal = fem.Function(self.V)
             self._weight = fem.Function(self.V)
-
-        self.has_side_walls = bool(p.channel_width and p.mu_side > 0)
         if self.has_side_walls:
-            self.terms["volume_augmentation"] = augmented.volume_augmentation(r_w, u, v)
-            L = L + augmented.volume_multiplier(self.side_traction, self.side_slip, r_w, v)
             self._side_threshold_expr = compat.expression(
                 2.0 / p.channel_width * p.mu_side * ufl.as_vector((p_h, p_h)), self.V)
             self._side_threshold = fem.Function(self.V)
@@ -187,24 +208,22 @@ class AugmentedLagrangianFlow(RegularizedFlow):
         self.system = self._make_system(a, L)
 
     def _setup_friction_nodes(self, walls) -> None:
-        """Velocity nodes (blocks of V) on the friction walls, their unit tangent and μ.
-        Nodes on two walls (the corner, where u = 0) are left out."""
+        """Velocity nodes (blocks of V) on the friction walls, their unit tangent (from the
+        wall's normal) and μ. Nodes on two walls (a corner, where u = 0) are left out."""
         fdim = self.mesh.topology.dim - 1
         ft = self.tagged.facet_tags
-        found = {}
-        for mu, tag in walls:
-            blocks = fem.locate_dofs_topological(self.V, fdim, ft.indices[ft.values == tag])
-            found[tag] = (mu, np.asarray(blocks, dtype=np.int64))
+        found = [(b, np.asarray(fem.locate_dofs_topological(self.V, fdim, ft.indices[ft.values == b.tag]),
+                                dtype=np.int64)) for b in walls]
+        counts: dict[int, int] = {}
+        for _, nodes in found:
+            for i in nodes:
+                counts[int(i)] = counts.get(int(i), 0) + 1
         blocks, tangents, mus = [], [], []
-        tangent = {BED: (1.0, 0.0), WALL: (0.0, 1.0)}   # bed y = 0, wall x = 0
-        shared = set()
-        if len(found) == 2:
-            shared = set(found[BED][1]) & set(found[WALL][1])
-        for tag, (mu, b) in found.items():
-            b = np.array([i for i in b if i not in shared], dtype=np.int64)
+        for wall, nodes in found:
+            b = np.array([i for i in nodes if counts[int(i)] == 1], dtype=np.int64)
             blocks.append(b)
-            tangents.append(np.tile(tangent[tag], (len(b), 1)))
-            mus.append(np.full(len(b), mu))
+            tangents.append(np.tile(wall.tangent, (len(b), 1)))
+            mus.append(np.full(len(b), wall.friction))
         self._f_blocks = np.concatenate(blocks)
         self._f_tangent = np.concatenate(tangents)
         self._f_mu = np.concatenate(mus)
@@ -233,6 +252,14 @@ class AugmentedLagrangianFlow(RegularizedFlow):
             mine.x.array[:] = theirs.x.array
         self.pressure_known = other.pressure_known
 
+    def transfer(self, fields) -> float:
+        """Also the multipliers; with them, the pressure counts as known (κ(p) is lagged
+        from it, as in later steps)."""
+        outside = super().transfer(fields)
+        if any(name in fields for name in self.multiplier_functions()):
+            self.pressure_known = True
+        return outside
+
     def _state(self) -> list[np.ndarray]:
         return [f.x.array for f in self._multipliers()]
 
@@ -243,6 +270,14 @@ class AugmentedLagrangianFlow(RegularizedFlow):
     def set_multiplier_arrays(self, arrays) -> None:
         for target, values in zip(self._state(), arrays):
             target[:] = values
+
+    exported_cell_fields = ("rigid",)
+
+    def cell_field(self, name: str) -> np.ndarray:
+        """"rigid": 1 in the cells where γ̇ = 0 exactly, else 0."""
+        if name != "rigid":
+            return super().cell_field(name)
+        return self.rigid_cells().astype(float)
 
     def rigid_cells(self) -> np.ndarray:
         """Per local cell: True where γ̇ = 0 exactly at all its nodes (rigid zone)."""
@@ -339,10 +374,9 @@ class AugmentedLagrangianFlow(RegularizedFlow):
         """First guess of p where none exists yet (the initial state):
         p = ρ g cos θ [s(x) − y]_+ with s(x) the free-surface height above x. The first step
         then starts from the yield limit of a mass at rest, not from κ = 0."""
-        from dpcollapse.geometry.mesher import SURFACE
-
         ft = self.tagged.facet_tags
-        facets = ft.indices[ft.values == SURFACE]
+        surface_tags = [b.tag for b in self.params.of_kind(BoundaryKind.FREE_SURFACE)]
+        facets = ft.indices[np.isin(ft.values, surface_tags)]
         nodes = compat.entities_to_geometry(self.mesh, 1, facets)
         pts = self.mesh.geometry.x[:, :2][nodes.ravel()] if len(facets) else np.zeros((0, 2))
         pts = np.concatenate(self.comm.allgather(pts))

@@ -6,6 +6,7 @@ velocity w, iterate k = 0, 1, …: assemble the linear Oseen/Stokes problem of
 LU, and stop when the estimated error of the iterate, ‖u^{k+1} − uᵏ‖·max(1, ρ/(1 − ρ)) with ρ
 the observed contraction of successive increments, is ≤ rtol ‖u^{k+1}‖ + atol (RMS over
 velocity dofs). Optionally the iterates are Anderson-accelerated (``solvers.anderson``).
+The fields and conditions are those of ``models.stokes.state``.
 """
 
 from __future__ import annotations
@@ -16,35 +17,22 @@ from dataclasses import dataclass
 import numpy as np
 import ufl
 from dolfinx import fem
-from mpi4py import MPI
 
 from dpcollapse import compat
-from dpcollapse.forms import friction, momentum
-from dpcollapse.geometry.mesher import BED, RIGHT, SURFACE, WALL, TaggedMesh
+from dpcollapse.forms.picard import picard_terms
+from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.models.stokes.state import (
+    FlowParameters,
+    StepReport,
+    StokesState,
+    contraction,
+    distance_to_limit,
+)
+from dpcollapse.scenes.base import BoundaryKind
 from dpcollapse.solvers.anderson import Anderson
-from dpcollapse.solvers.assembly import LinearSystem, zero_dirichlet
+from dpcollapse.solvers.assembly import zero_dirichlet
 from dpcollapse.solvers.iterative import BlockSolver
 from dpcollapse.solvers.linear import DirectSolver
-
-
-@dataclass(frozen=True)
-class FlowParameters:
-    """Physical parameters of a scene, SI units."""
-
-    density: float            # ρ [kg/m³]
-    gravity: float            # g [m/s²]
-    bed_angle: float          # θ [rad]
-    rheology: object          # DruckerPrager or MuI: yield_stress, secant_viscosity, deviatoric_stress
-    mu_bed: float             # μ_b
-    mu_wall: float            # μ_l
-    bed_no_slip: bool = False  # u = 0 on the bed instead of u·n = 0 + Coulomb friction
-    channel_width: float | None = None  # w: side-wall friction (2/w) μ_w p u/|u| when given
-    mu_side: float = 0.0      # μ_w
-
-    @property
-    def body_force(self) -> tuple[float, float]:
-        """f = g (sin θ, −cos θ) in slope coordinates."""
-        return (self.gravity * math.sin(self.bed_angle), -self.gravity * math.cos(self.bed_angle))
 
 
 @dataclass(frozen=True)
@@ -63,64 +51,36 @@ class PicardSettings:
     krylov_max_iterations: int = 500
 
 
-@dataclass
-class StepReport:
-    converged: bool
-    iterations: int
-    residual: float        # estimated error of the last iterate relative to the RMS velocity
-    message: str = ""
+def picard_settings(cfg) -> PicardSettings:
+    """The fixed-point settings of ``numerics``."""
+    n = cfg.numerics
+    return PicardSettings(n.epsilon, n.epsilon_friction, n.nonlinear_rtol, n.nonlinear_atol,
+                          n.max_iterations, n.linear_solver, n.anderson_depth,
+                          n.reuse_factorization, n.quadrature_degree, n.extrapolate,
+                          n.krylov_rtol, n.krylov_max_iterations)
 
 
-#: Largest contraction factor used in the error estimate of the fixed point.
-CONTRACTION_CAP = 0.99
+class RegularizedFlow(StokesState):
+    """The regularized model on one mesh: its forms, its linear solver and the Picard step."""
 
+    #: its ``numerics.method``
+    method = "regularized"
 
-def contraction(change: float, previous: float) -> float:
-    """ρ = ‖Δ_k‖/‖Δ_{k−1}‖ of successive increments, capped at CONTRACTION_CAP (0 without
-    a previous increment)."""
-    return min(change / previous, CONTRACTION_CAP) if previous > 0 else 0.0
-
-
-def distance_to_limit(change: float, rho: float) -> float:
-    """Estimated distance of a linearly converging iterate to its limit, Δ max(1, ρ/(1 − ρ))."""
-    return change * max(1.0, rho / (1.0 - rho))
-
-
-class RegularizedFlow:
-    """Spaces, state, forms and solvers of the regularized flow on one mesh."""
+    @classmethod
+    def from_config(cls, tagged: TaggedMesh, cfg, params: FlowParameters) -> RegularizedFlow:
+        return cls(tagged, params, picard_settings(cfg))
 
     def __init__(self, tagged: TaggedMesh, params: FlowParameters, settings: PicardSettings):
-        self.tagged = tagged
-        self.mesh = mesh = tagged.mesh
-        self.params = params
+        super().__init__(tagged, params)
         self.settings = settings
-        self.comm = mesh.comm
-
-        self.W = compat.taylor_hood_space(mesh)
-        self.V, vdofs = compat.collapse(self.W.sub(0))
-        self.Q, pdofs = compat.collapse(self.W.sub(1))
-        self.velocity_dofs = np.asarray(vdofs, dtype=np.int32)
-        self.pressure_dofs = np.asarray(pdofs, dtype=np.int32)
-        self.Vw = compat.vector_space(mesh, 1)
-
         self._contraction = 0.0   # last measured contraction of the fixed point (extrapolate)
         self._history = None      # (xₙ₋₁, Δt_prev) of the last accepted step (extrapolate)
         self._pending_history = None
-        self.solution = fem.Function(self.W, name="solution")   # (u^{n+1,k+1}, p^{n+1,k+1})
-        self.iterate = fem.Function(self.W, name="iterate")     # (u^{n+1,k}, p^{n+1,k})
-        self.u_old = fem.Function(self.V, name="u_old")         # uⁿ
-        self.mesh_velocity = fem.Function(self.Vw, name="mesh_velocity")  # w
-
-        self.dt = fem.Constant(mesh, compat.ScalarType(1e-3))
         self._build_forms()
         self.solver = self._make_solver()
-        size_local = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
-        self._owned_velocity = self.velocity_dofs[self.velocity_dofs < size_local]
-        self._n_velocity = self.comm.allreduce(len(self._owned_velocity), op=MPI.SUM)
-        self._size_local = size_local
-        weights = np.zeros(size_local)
+        weights = np.zeros(self._size_local)
         weights[self._owned_velocity] = 1.0
-        self.anderson = Anderson(self.comm, settings.anderson_depth, size_local, weights)
+        self.anderson = Anderson(self.comm, settings.anderson_depth, self._size_local, weights)
 
     # ------------------------------------------------------------------ forms
     def _build_forms(self) -> None:
@@ -140,27 +100,15 @@ class RegularizedFlow:
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=self.tagged.facet_tags, metadata=metadata)
         n = ufl.FacetNormal(mesh)
 
-        rheo = p.rheology
-        sigma_k = rheo.deviatoric_stress(u_k, p_k, eps)
-        self.terms = {
-            "inertia": momentum.inertia(rho, self.dt, u, v),
-            "convection": momentum.convection(rho, u_k, self.mesh_velocity, u, v, dx),
-            "viscoplastic": momentum.viscoplastic(rheo.secant_viscosity(u_k, p_k, eps), u, v, dx),
-            "pressure": momentum.pressure(pr, v),
-            "incompressibility": momentum.incompressibility(q, u),
-        }
-        normal_stress = friction.normal_pressure(p_k, sigma_k, n)
-        walls = [("wall_friction", p.mu_wall, WALL)]
-        if not p.bed_no_slip:
-            walls.insert(0, ("bed_friction", p.mu_bed, BED))
-        for name, mu, tag in walls:
-            if mu > 0 and self._has_tag(tag):
-                self.terms[name] = friction.coulomb_friction(mu, normal_stress, u_k, eps_f, u, v, n, ds(tag))
-        if p.channel_width and p.mu_side > 0:
-            self.terms["side_wall_friction"] = friction.side_wall_friction(
-                p.channel_width, p.mu_side, p_k, u_k, eps_f, u, v, dx)
+        walls = [(f"{b.name}_friction", b.friction, b.tag) for b in p.boundaries if b.has_friction]
+        self.terms, rhs = picard_terms(
+            p.rheology, rho=rho, dt=self.dt, body_force=f, epsilon=eps, epsilon_friction=eps_f,
+            u_iter=u_k, p_iter=p_k, u_old=self.u_old, mesh_velocity=self.mesh_velocity,
+            trial=(u, pr), test=(v, q), n=n, dx=dx, ds=ds,
+            friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
+            side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None)
         a = sum(self.terms.values())
-        L = momentum.gravity(rho, f, v) + momentum.previous_velocity(rho, self.dt, self.u_old, v)
+        L = sum(rhs.values())
         self.system = self._make_system(a, L)
 
     def _make_solver(self):
@@ -176,7 +124,7 @@ class RegularizedFlow:
         """FGMRES + Schur fieldsplit (``solvers.iterative``) with its two pressure operators
         on the current iterate: the mass matrix weighted by 2/ν (ν the secant viscosity) and
         the Laplacian weighted by Δt/ρ, with p = 0 on the free surface."""
-        if self._has_tag(RIGHT):
+        if self.params.periodic_slave is not None:
             raise ValueError("linear_solver iterative: not available on a periodic layer")
         _, p = ufl.TrialFunctions(self.W)
         _, q = ufl.TestFunctions(self.W)
@@ -185,69 +133,15 @@ class RegularizedFlow:
         dx = ufl.Measure("dx", domain=self.mesh, metadata={"quadrature_degree": 2})
         mass = 2.0 / nu * p * q * dx
         laplacian = self.dt / self._rho * ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx
-        bcs = [zero_dirichlet(self.W.sub(1), self.tagged.facet_tags, SURFACE)]
+        bcs = [zero_dirichlet(self.W.sub(1), self.tagged.facet_tags, b.tag)
+               for b in self.params.of_kind(BoundaryKind.FREE_SURFACE)]
         return BlockSolver(self.comm, self.W, self.velocity_dofs, self.pressure_dofs, mass,
                            laplacian, bcs, prefix=prefix, rtol=rtol, max_it=max_iterations)
 
-    def _make_system(self, a, L):
-        """The linear system of (a, L) with the Dirichlet conditions; periodic in x (slave
-        side RIGHT, master side x = 0) when the mesh has a RIGHT tag."""
-        bcs = self._dirichlet_bcs()
-        if self._has_tag(RIGHT):
-            from dpcollapse.solvers.periodic import PeriodicLinearSystem
-
-            length = self.comm.allreduce(float(self.mesh.geometry.x[:, 0].max()), op=MPI.MAX)
-            return PeriodicLinearSystem(a, L, bcs, self.W, self.tagged.facet_tags, RIGHT, (-length, 0.0))
-        return LinearSystem(a, L, bcs)
-
-    def _has_tag(self, tag: int) -> bool:
-        local = bool(np.any(self.tagged.facet_tags.values == tag))
-        return self.comm.allreduce(local, op=MPI.LOR)
-
-    def _dirichlet_bcs(self):
-        """No penetration u·n = 0 exactly: u_y = 0 on the bed (y = 0), u_x = 0 on the wall
-        (x = 0); or no slip u = 0 on the bed."""
-        velocity = self.W.sub(0)
-        constrained = [(BED, None if self.params.bed_no_slip else 1), (WALL, 0)]
-        return [zero_dirichlet(velocity if comp is None else velocity.sub(comp), self.tagged.facet_tags, tag)
-                for tag, comp in constrained]
-
-    def set_velocity(self, profile) -> None:
-        """Set uⁿ and the first iterate to ``profile(x) -> (2, n)`` (initial condition)."""
-        self.u_old.interpolate(profile)
-        self.iterate.x.array[self.velocity_dofs] = self.u_old.x.array
-        self.solution.x.array[:] = self.iterate.x.array
-
-    # ------------------------------------------------------------------ state access
-    def velocity(self, which: fem.Function | None = None):
-        return (which or self.solution).sub(0)
-
-    def velocity_values(self, which: fem.Function | None = None) -> np.ndarray:
-        """Owned velocity dof values (flat) of ``which`` (default: the solution)."""
-        return (which or self.solution).x.array[self._owned_velocity]
-
-    def rms(self, values: np.ndarray) -> float:
-        total = self.comm.allreduce(float(np.dot(values, values)), op=MPI.SUM)
-        return math.sqrt(total / max(self._n_velocity, 1))
-
     def accept_step(self) -> None:
-        """uⁿ ← u^{n+1}: the solution becomes the old state and the first iterate."""
-        self.iterate.x.array[:] = self.solution.x.array
-        self.u_old.x.array[:] = self.solution.x.array[self.velocity_dofs]
+        """uⁿ ← u^{n+1}, and the step's start becomes the extrapolation history."""
+        super().accept_step()
         self._history = self._pending_history
-
-    def multiplier_functions(self) -> dict:
-        """Fields besides (u, p) that a remesh or checkpoint must carry: none here."""
-        return {}
-
-    def copy_state_from(self, other: RegularizedFlow) -> None:
-        """Take the state of a flow on the same mesh with the same dofs (new facet tags)."""
-        for name in ("solution", "iterate", "u_old", "mesh_velocity"):
-            getattr(self, name).x.array[:] = getattr(other, name).x.array
-
-    def reset_iterate(self) -> None:
-        """Start the next step's fixed point from the last accepted state."""
-        self.solution.x.array[:] = self.iterate.x.array
 
     # ------------------------------------------------------------------ the step
     def solve_step(self, dt: float) -> StepReport:
@@ -312,7 +206,3 @@ class RegularizedFlow:
             self.iterate.x.scatter_forward()
         self.iterate.x.array[:] = start
         return StepReport(False, s.max_iterations, residual, "iteration cap reached")
-
-    def destroy(self) -> None:
-        self.system.destroy()
-        self.solver.destroy()

@@ -1,0 +1,1 @@
+"""Domains: fixed (``domain.fixed``) or moving with the material (``domain.moving``)."""

@@ -1,0 +1,45 @@
+"""What the time loop asks of a domain, fixed or moving (``Domain``), and which one a
+config has (``make_domain``)."""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+
+class Domain(Protocol):
+    """limit Δt, move, undo, remesh; ``moving`` says whether the mesh follows the material
+    (then the energy balance of a closed mass applies)."""
+
+    moving: bool
+    #: mesh-velocity solves so far
+    solves: int
+
+    def limit_step(self, disc, dt: float) -> float:
+        """The largest step ≤ ``dt`` the domain allows from the accepted state (inf: none)."""
+
+    def recompute(self, disc) -> None:
+        """Redo what ``limit_step`` prepared, for a retried (shorter) step."""
+
+    def move(self, disc, dt: float) -> tuple[object, int]:
+        """Move the mesh over ``dt``: (what ``undo`` needs, number of nodes that landed)."""
+
+    def undo(self, disc, token) -> None:
+        """Take back ``move``."""
+
+    def needs_remesh(self, disc, state) -> str | None:
+        """Why the mesh must be rebuilt now, or None."""
+
+    def remesh(self, tagged, area0: float):
+        """A new mesh of the current boundary: (tagged mesh, boundary vertices)."""
+
+
+def make_domain(cfg) -> Domain:
+    """MovingDomain with ``numerics.ale``, else FixedDomain."""
+    if cfg.numerics.ale:
+        from dpcollapse.domain.moving import MovingDomain
+
+        return MovingDomain(cfg.numerics.remesh_min_angle, cfg.geometry.mesh_size,
+                            cfg.geometry.surface_mesh_size)
+    from dpcollapse.domain.fixed import FixedDomain
+
+    return FixedDomain()

@@ -1,0 +1,67 @@
+"""A domain moving with the material (ALE, seed 000): the mesh velocity w of
+``ale.motion``, the step limit that keeps cells and the free surface valid, the node update
+x ← x + Δt w, and the remesh criterion on the smallest cell angle.
+
+Remesh when the smallest angle is below ``numerics.remesh_min_angle`` and at least
+REMESH_COOLDOWN steps have passed since the last remesh; a remesh that could not reach the
+threshold (a sharp boundary corner) lowers it to REMESH_DEGRADATION × the angle it left,
+so that the same mesh is not rebuilt every REMESH_COOLDOWN steps.
+"""
+
+from __future__ import annotations
+
+import math
+
+from dpcollapse.ale.motion import quality
+from dpcollapse.ale.remesh import remesh_domain
+
+#: Largest area change a remesh may make by dropping boundary vertices, relative to the
+#: initial area.
+REMESH_AREA_TOLERANCE = 1e-6
+#: Steps between two remeshes triggered by the angle criterion alone.
+REMESH_COOLDOWN = 5
+#: After a remesh that left an angle below the threshold, remesh again only when the
+#: smallest angle has dropped below this fraction of the angle the remesh left.
+REMESH_DEGRADATION = 0.9
+
+
+class MovingDomain:
+    moving = True
+
+    def __init__(self, remesh_min_angle: float, mesh_size: float,
+                 surface_mesh_size: float | None = None):
+        self.remesh_min_angle = remesh_min_angle
+        self.mesh_size, self.surface_mesh_size = mesh_size, surface_mesh_size
+        self.solves = 0
+
+    def limit_step(self, disc, dt: float) -> float:
+        """Solve for w from uⁿ; the largest safe step ≤ dt (``MeshMotion.max_step``)."""
+        self.recompute(disc)
+        return disc.motion.max_step(dt)
+
+    def recompute(self, disc) -> None:
+        disc.motion.compute()
+        self.solves += 1
+
+    def move(self, disc, dt: float):
+        """x ← x + Δt w: (old coordinates, nodes that landed on the bed)."""
+        return disc.motion.move(dt)
+
+    def undo(self, disc, old_x) -> None:
+        disc.mesh.geometry.x[:] = old_x
+
+    def needs_remesh(self, disc, state) -> str | None:
+        q = quality(disc.mesh)
+        since = state.step - state.last_remesh_step
+        after = state.remesh_angle_after if state.remesh_angle_after is not None else math.inf
+        threshold = min(self.remesh_min_angle, REMESH_DEGRADATION * after)
+        if q["min_angle"] < threshold and since >= REMESH_COOLDOWN:
+            return f"min angle {q['min_angle']:.1f}°"
+        return None
+
+    def remesh(self, tagged, area0: float):
+        """A new mesh of the current boundary (``ale.remesh``): (tagged mesh, number of
+        boundary vertices kept)."""
+        new, _, nverts = remesh_domain(tagged, self.mesh_size, self.surface_mesh_size,
+                                       REMESH_AREA_TOLERANCE * area0)
+        return new, nverts

@@ -1,0 +1,56 @@
+"""The named terms of one Picard iteration of the regularized flow (seed 000).
+
+For (u, p) = (u^{n+1,k+1}, p^{n+1,k+1}) and every test pair (v, q)::
+
+    lhs:  "inertia"            ∫ ρ u/Δt · v
+          "convection"         ∫ ρ ((uᵏ − w)·∇) u · v
+          "viscoplastic"       ∫ S(uᵏ, pᵏ) D(u):D(v),   S = κ(pᵏ)/|D(uᵏ)|_ε + 2η (the law's secant viscosity)
+          "pressure"           −∫ p div v
+          "incompressibility"  −∫ q div u
+          "<wall>_friction"    ∫_Γ μ [pᵏ − σ'_nn]_+ u_T·v_T/√(|u_Tᵏ|² + ε_f²) ds   (each Coulomb wall)
+          "side_wall_friction" (2/w) ∫ μ_w [pᵏ]_+ u·v/√(|uᵏ|² + ε_f²)            (channel of width w)
+    rhs:  "gravity"            ∫ ρ f·v
+          "previous_velocity"  ∫ ρ uⁿ/Δt · v
+
+The system is Σ lhs = Σ rhs, summed in the order of the dictionaries. Each term is the
+pure function of ``forms.momentum`` or ``forms.friction`` that documents its integral.
+"""
+
+from __future__ import annotations
+
+import ufl
+
+from dpcollapse.forms import friction, momentum
+
+
+def picard_terms(law, *, rho, dt, body_force, epsilon, epsilon_friction, u_iter, p_iter, u_old,
+                 mesh_velocity, trial, test, n, dx=ufl.dx, ds=None, friction_walls=(),
+                 side_walls=None) -> tuple[dict, dict]:
+    """(lhs, rhs): the named bilinear and linear terms (UFL forms) of one Picard iteration.
+
+    law: a :class:`~dpcollapse.rheology.base.Rheology`; trial = (u, p), test = (v, q);
+    friction_walls: (name, μ, facet tag) of each Coulomb wall, integrated on ``ds(tag)``;
+    side_walls: (w, μ_w) for width-averaged side-wall friction, or None.
+    """
+    (u, p), (v, q) = trial, test
+    lhs = {
+        "inertia": momentum.inertia(rho, dt, u, v),
+        "convection": momentum.convection(rho, u_iter, mesh_velocity, u, v, dx),
+        "viscoplastic": momentum.viscoplastic(law.secant_viscosity(u_iter, p_iter, epsilon), u, v, dx),
+        "pressure": momentum.pressure(p, v),
+        "incompressibility": momentum.incompressibility(q, u),
+    }
+    if friction_walls:
+        normal_stress = friction.normal_pressure(p_iter, law.deviatoric_stress(u_iter, p_iter, epsilon), n)
+        for name, mu, tag in friction_walls:
+            lhs[name] = friction.coulomb_friction(mu, normal_stress, u_iter, epsilon_friction, u, v, n,
+                                                  ds(tag))
+    if side_walls is not None:
+        width, mu_side = side_walls
+        lhs["side_wall_friction"] = friction.side_wall_friction(width, mu_side, p_iter, u_iter,
+                                                                epsilon_friction, u, v, dx)
+    rhs = {
+        "gravity": momentum.gravity(rho, body_force, v),
+        "previous_velocity": momentum.previous_velocity(rho, dt, u_old, v),
+    }
+    return lhs, rhs

@@ -1,0 +1,78 @@
+"""Pieces of the time loop that do not depend on the model: its typed state (what a
+checkpoint stores) and its events.
+
+Events (``Events.emit``) of a run, in the order they happen:
+
+- ``discretization(sim, disc)``: a new mesh with its model is in use (start, resume, remesh,
+  landing rebuild) — benchmarks collect its solver statistics from here;
+- ``step_accepted(sim, row)``: a step is accepted; ``row`` is its diagnostics row. A
+  subscriber that returns True ends the run cleanly after this step (files written as at
+  rest, status "stopped_by_observer"); under MPI it must return the same on every rank;
+- ``output(sim, t)``: fields written at time t;
+- ``remesh(sim, info)``: the domain was remeshed (``info``: reason, areas, cells);
+- ``failure(sim, error)``: the run stops on a solver or mesh failure (before it is raised).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+EVENTS = ("discretization", "step_accepted", "output", "remesh", "failure")
+
+
+class Events:
+    """Subscribers by event name; ``emit`` calls them in subscription order."""
+
+    def __init__(self):
+        self._subscribers: dict[str, list[Callable]] = {name: [] for name in EVENTS}
+
+    def subscribe(self, name: str, callback: Callable) -> Callable:
+        if name not in self._subscribers:
+            raise ValueError(f"unknown event {name!r}; events: {', '.join(EVENTS)}")
+        self._subscribers[name].append(callback)
+        return callback
+
+    def emit(self, name: str, *args) -> list:
+        """Call every subscriber of ``name``; their return values."""
+        return [callback(*args) for callback in self._subscribers[name]]
+
+
+@dataclass
+class LoopState:
+    """The state of the time loop: what a checkpoint stores besides the fields.
+
+    Saved as a JSON object (``to_dict``); optional entries are left out while unset, as
+    the dict state of earlier versions did, so old checkpoints load (``from_dict``).
+    """
+
+    t: float = 0.0                 # [s]
+    step: int = 0
+    dt_target: float = 0.0         # [s] the step size aimed at next
+    rest_time: float = 0.0         # [s] how long max |u| has stayed below the rest speed
+    remeshes: int = 0
+    last_remesh_step: int = -10**9
+    area0: float = 0.0             # [m²] of the initial mass
+    gravity_moment0: float = 0.0   # ρ∫f·x dx at t = 0 [J/m]
+    kinetic_energy0: float = 0.0   # [J/m]
+    status: str = "running"
+    #: optional: step of the last checkpoint; smallest angle a remesh left [deg];
+    #: kinetic energy of the previous step [J/m]; nose nodes that landed on the bed
+    checkpoint_step: int | None = None
+    remesh_angle_after: float | None = None
+    kinetic_energy_previous: float | None = None
+    landings: int | None = None
+    #: entries of a checkpoint this version does not know, kept and written back
+    extra: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "extra"}
+        out = {k: v for k, v in out.items() if v is not None}
+        return {**self.extra, **out}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> LoopState:
+        names = {f.name for f in dataclasses.fields(cls)} - {"extra"}
+        known = {k: v for k, v in data.items() if k in names}
+        return cls(**known, extra={k: v for k, v in data.items() if k not in names})

@@ -1,0 +1,278 @@
+"""The state of a Stokes model on one mesh, and the plumbing both Stokes models share.
+
+Named fields on Taylor–Hood P2/P1 (``W``) and P1 (``Vw``)::
+
+    solution        (u^{n+1,k+1}, p^{n+1,k+1})   the last iterate's solve
+    iterate         (u^{n+1,k},   p^{n+1,k})     the coefficients of the next solve
+    u_old           uⁿ                            the accepted velocity
+    mesh_velocity   w                             of a moving domain (zero on a fixed one)
+
+plus, for a model that carries them, multipliers (``multiplier_functions``). The Dirichlet
+conditions come from the scene's boundaries (no slip; u·n = 0 on an axis-parallel side), the
+periodic constraint from its periodic pair. ``StokesState`` is the base of both models
+(``regularized``, ``augmented``); neither inherits from the other.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from dolfinx import fem
+from mpi4py import MPI
+
+from dpcollapse import compat
+from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.rheology.base import Rheology
+from dpcollapse.scenes.base import SOLID, Boundary, BoundaryKind
+from dpcollapse.solvers.assembly import LinearSystem, zero_dirichlet
+from dpcollapse.transfer import CellwiseField, concatenate
+
+
+@dataclass(frozen=True)
+class FlowParameters:
+    """Physical parameters of a scene, SI units."""
+
+    density: float            # ρ [kg/m³]
+    gravity: float            # g [m/s²]
+    bed_angle: float          # θ [rad]
+    rheology: Rheology        # the constitutive law (rheology.base)
+    boundaries: tuple[Boundary, ...] = ()  # of the scene (scenes.base): kind, normal, μ per tag
+    channel_width: float | None = None  # w: side-wall friction (2/w) μ_w p u/|u| when given
+    mu_side: float = 0.0      # μ_w
+
+    def of_kind(self, *kinds: BoundaryKind) -> list[Boundary]:
+        """The boundaries of the given kinds, in the scene's order."""
+        return [b for b in self.boundaries if b.kind in kinds]
+
+    @property
+    def periodic_slave(self) -> Boundary | None:
+        """The side tied to its periodic image (the one with a translation), if any."""
+        return next((b for b in self.of_kind(BoundaryKind.PERIODIC) if b.translation), None)
+
+    @property
+    def body_force(self) -> tuple[float, float]:
+        """f = g (sin θ, −cos θ) in slope coordinates."""
+        return (self.gravity * math.sin(self.bed_angle), -self.gravity * math.cos(self.bed_angle))
+
+
+@dataclass
+class StepReport:
+    converged: bool
+    iterations: int
+    residual: float        # estimated error of the last iterate relative to the RMS velocity
+    message: str = ""
+
+
+#: Largest contraction factor used in the error estimate of the fixed point.
+CONTRACTION_CAP = 0.99
+
+
+def contraction(change: float, previous: float) -> float:
+    """ρ = ‖Δ_k‖/‖Δ_{k−1}‖ of successive increments, capped at CONTRACTION_CAP (0 without
+    a previous increment)."""
+    return min(change / previous, CONTRACTION_CAP) if previous > 0 else 0.0
+
+
+def distance_to_limit(change: float, rho: float) -> float:
+    """Estimated distance of a linearly converging iterate to its limit, Δ max(1, ρ/(1 − ρ))."""
+    return change * max(1.0, rho / (1.0 - rho))
+
+
+
+class StokesState:
+    """Spaces, named fields, conditions and state access of a Stokes model on one mesh."""
+
+    def __init__(self, tagged: TaggedMesh, params: FlowParameters):
+        self.tagged = tagged
+        self.mesh = mesh = tagged.mesh
+        self.params = params
+        self.comm = mesh.comm
+
+        self.W = compat.taylor_hood_space(mesh)
+        self.V, vdofs = compat.collapse(self.W.sub(0))
+        self.Q, pdofs = compat.collapse(self.W.sub(1))
+        self.velocity_dofs = np.asarray(vdofs, dtype=np.int32)
+        self.pressure_dofs = np.asarray(pdofs, dtype=np.int32)
+        self.Vw = compat.vector_space(mesh, 1)
+
+        self.solution = fem.Function(self.W, name="solution")   # (u^{n+1,k+1}, p^{n+1,k+1})
+        self.iterate = fem.Function(self.W, name="iterate")     # (u^{n+1,k}, p^{n+1,k})
+        self.u_old = fem.Function(self.V, name="u_old")         # uⁿ
+        self.mesh_velocity = fem.Function(self.Vw, name="mesh_velocity")  # w
+        self.dt = fem.Constant(mesh, compat.ScalarType(1e-3))
+
+        size_local = self.W.dofmap.index_map.size_local * self.W.dofmap.index_map_bs
+        self._owned_velocity = self.velocity_dofs[self.velocity_dofs < size_local]
+        self._n_velocity = self.comm.allreduce(len(self._owned_velocity), op=MPI.SUM)
+        self._size_local = size_local
+
+    # ------------------------------------------------------------------ conditions
+    def _make_system(self, a, L):
+        """The linear system of (a, L) with the Dirichlet conditions; periodic when the scene
+        has a periodic pair (the slave side carries the translation onto its master)."""
+        bcs = self._dirichlet_bcs()
+        slave = self.params.periodic_slave
+        if slave is not None:
+            from dpcollapse.solvers.periodic import PeriodicLinearSystem
+
+            return PeriodicLinearSystem(a, L, bcs, self.W, self.tagged.facet_tags, slave.tag,
+                                        slave.translation)
+        return LinearSystem(a, L, bcs)
+
+    def _has_tag(self, tag: int) -> bool:
+        local = bool(np.any(self.tagged.facet_tags.values == tag))
+        return self.comm.allreduce(local, op=MPI.LOR)
+
+    def _dirichlet_bcs(self):
+        """On each solid side of the scene: no slip u = 0, or no penetration u·n = 0 exactly
+        (the component along its axis-parallel normal: u_y = 0 on the bed y = 0, u_x = 0 on
+        the wall x = 0)."""
+        velocity = self.W.sub(0)
+        ft = self.tagged.facet_tags
+        return [zero_dirichlet(velocity if b.kind == BoundaryKind.NO_SLIP else velocity.sub(b.normal_axis()),
+                               ft, b.tag) for b in self.params.of_kind(*SOLID)]
+
+    # ------------------------------------------------------------------ state access
+    def set_velocity(self, profile) -> None:
+        """Set uⁿ and the first iterate to ``profile(x) -> (2, n)`` (initial condition)."""
+        self.u_old.interpolate(profile)
+        self.iterate.x.array[self.velocity_dofs] = self.u_old.x.array
+        self.solution.x.array[:] = self.iterate.x.array
+
+    # ------------------------------------------------------------------ state access
+    def velocity(self, which: fem.Function | None = None):
+        return (which or self.solution).sub(0)
+
+    def velocity_values(self, which: fem.Function | None = None) -> np.ndarray:
+        """Owned velocity dof values (flat) of ``which`` (default: the solution)."""
+        return (which or self.solution).x.array[self._owned_velocity]
+
+    def rms(self, values: np.ndarray) -> float:
+        total = self.comm.allreduce(float(np.dot(values, values)), op=MPI.SUM)
+        return math.sqrt(total / max(self._n_velocity, 1))
+
+    def accept_step(self) -> None:
+        """uⁿ ← u^{n+1}: the solution becomes the old state and the first iterate."""
+        self.iterate.x.array[:] = self.solution.x.array
+        self.u_old.x.array[:] = self.solution.x.array[self.velocity_dofs]
+
+    #: the adaptive step's iteration thresholds are multiplied by this (``simulation``)
+    iteration_scale = 1
+    #: names of the per-cell fields the model exports (``cell_field``)
+    exported_cell_fields: tuple[str, ...] = ()
+
+    def cell_field(self, name: str) -> np.ndarray:
+        """Values per local cell of the exported field ``name``."""
+        raise KeyError(f"{type(self).__name__} exports no cell field {name!r}")
+
+    def multiplier_functions(self) -> dict:
+        """Fields besides (u, p) that a remesh or checkpoint must carry (none by default)."""
+        return {}
+
+    def copy_state_from(self, other: StokesState) -> None:
+        """Take the state of a flow on the same mesh with the same dofs (new facet tags)."""
+        for name in ("solution", "iterate", "u_old", "mesh_velocity"):
+            getattr(self, name).x.array[:] = getattr(other, name).x.array
+
+    def reset_iterate(self) -> None:
+        """Start the next step's fixed point from the last accepted state."""
+        self.solution.x.array[:] = self.iterate.x.array
+
+    def destroy(self) -> None:
+        """Free the PETSc objects of the linear system and solver."""
+        self.system.destroy()
+        self.solver.destroy()
+
+    # ------------------------------------------------------------------ snapshot / transfer
+    def snapshot(self) -> dict[str, CellwiseField]:
+        """The accepted state as mesh-independent fields gathered on every rank: "velocity"
+        uⁿ (P2), "pressure" pⁿ (P1), and the multipliers by name (what a remesh carries and
+        a checkpoint stores)."""
+        u, p = snapshot(self)
+        return {"velocity": u, "pressure": p, **snapshot_multipliers(self)}
+
+    def transfer(self, fields: dict[str, CellwiseField]) -> float:
+        """Set the state from ``snapshot`` fields of another mesh (evaluated at this mesh's
+        dofs, extrapolated outside the old domain); the largest extrapolation distance [m].
+        Multipliers this model does not carry are ignored; missing ones stay zero."""
+        outside = load_state(self, fields["velocity"], fields["pressure"])
+        load_multipliers(self, {k: v for k, v in fields.items() if k not in ("velocity", "pressure")})
+        return outside
+
+
+def _cellwise(V, values: np.ndarray, bs: int, degree: int) -> CellwiseField:
+    mesh = V.mesh
+    n = compat.num_owned_cells(mesh)
+    dofs = compat.cell_dofs(V)[:n]
+    coords = V.tabulate_dof_coordinates()[:, :2]
+    verts = mesh.geometry.x[:, :2][compat.geometry_dofmap(mesh)[:n]]
+    return CellwiseField(vertices=verts, points=coords[dofs],
+                         values=values.reshape(-1, bs)[dofs], degree=degree)
+
+
+def snapshot(flow) -> tuple[CellwiseField, CellwiseField]:
+    """The accepted state (uⁿ on P2, pⁿ on P1) of ``flow`` gathered on every rank."""
+    u = _cellwise(flow.V, flow.u_old.x.array, 2, 2)
+    p = _cellwise(flow.Q, flow.iterate.x.array[flow.pressure_dofs], 1, 1)
+    comm = flow.comm
+    return concatenate(comm.allgather(u)), concatenate(comm.allgather(p))
+
+
+def load_state(flow, u_field: CellwiseField, p_field: CellwiseField) -> float:
+    """Set uⁿ, pⁿ (and the first iterate) of ``flow`` from snapshots; returns the largest
+    distance of a new dof outside the old domain (extrapolated there)."""
+    xu = flow.V.tabulate_dof_coordinates()[:, :2]
+    flow.u_old.x.array[:] = u_field.evaluate(xu).ravel()
+    outside = u_field.last_outside_distance
+    xp = flow.Q.tabulate_dof_coordinates()[:, :2]
+    flow.iterate.x.array[flow.pressure_dofs] = p_field.evaluate(xp)[:, 0]
+    flow.iterate.x.array[flow.velocity_dofs] = flow.u_old.x.array
+    flow.solution.x.array[:] = flow.iterate.x.array
+    return flow.comm.allreduce(float(outside), op=MPI.MAX)
+
+
+#: Discontinuous fields are evaluated this fraction of the way from each dof towards its
+#: cell's centroid, so that a dof on a shared vertex or edge takes its own cell's value
+#: (exact on the same mesh: a checkpoint restores the multipliers as they were).
+INSIDE_SHIFT = 1e-6
+
+
+def _evaluation_points(V) -> np.ndarray:
+    """Where to evaluate a snapshot for V's dofs: the dof coordinates, pulled slightly into
+    their cell for discontinuous spaces (every local dof belongs to one local cell)."""
+    x = V.tabulate_dof_coordinates()[:, :2].copy()
+    if compat.element_info(V).family != "DG":
+        return x
+    mesh = V.mesh
+    cells = compat.cell_dofs(V)
+    centroids = mesh.geometry.x[:, :2][compat.geometry_dofmap(mesh)[:len(cells), :3]].mean(axis=1)
+    for j in range(cells.shape[1]):
+        x[cells[:, j]] += INSIDE_SHIFT * (centroids - x[cells[:, j]])
+    return x
+
+
+def snapshot_multipliers(flow) -> dict[str, CellwiseField]:
+    """The augmented Lagrangian multipliers of ``flow`` (none for other solvers), gathered on
+    every rank: DG tensors (σ', γ̇) and P2 vectors (σ_T, δ, σ_w, δ_w), cell by cell."""
+    fields = {}
+    for name, func in flow.multiplier_functions().items():
+        V = func.function_space
+        bs = V.dofmap.index_map_bs
+        degree = compat.element_info(V).degree
+        fields[name] = concatenate(flow.comm.allgather(_cellwise(V, func.x.array, bs, degree)))
+    return fields
+
+
+def load_multipliers(flow, fields: dict[str, CellwiseField]) -> None:
+    """Evaluate snapshots of multipliers at ``flow``'s dof coordinates (a warm start for the
+    iteration: the converged step does not depend on it). Missing names are left at zero."""
+    targets = flow.multiplier_functions()
+    for name, field in fields.items():
+        if name in targets:
+            func = targets[name]
+            x = _evaluation_points(func.function_space)
+            func.x.array[:] = field.evaluate(x).ravel()
+
+

@@ -1,0 +1,123 @@
+r"""What a scene tells the models: its mesh, the kind of each boundary, its initial state.
+
+A scene builds the initial mesh of the mass with cell tags (material regions) and facet
+tags, and states for each facet tag one :class:`Boundary`: its kind, with the outward unit
+normal n of a straight side (tangent t = (−n_y, n_x), the counter-clockwise direction)::
+
+    no_slip        u = 0
+    coulomb        u·n = 0,  σ_T = −μ [p − σ'_nn]_+ u_T/|u_T|      (Coulomb friction μ)
+    slip           u·n = 0,  σ_T = 0                              (frictionless; symmetry)
+    free_surface   σ n = 0  (p = 0 for the pressure preconditioner; ALE: (w − u)·n = 0)
+    periodic       u(x) = u(x + translation) on the side that carries the translation
+
+u·n = 0 is imposed strongly on the velocity component along n, so solid sides must be
+parallel to an axis (:meth:`Boundary.normal_axis` refuses others: a slanted wall needs a
+slip constraint, Nitsche or a penalty, not implemented yet). The mesh velocity of a moving
+domain has w·n = 0 on every solid side, so nodes slide along it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import Enum
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from dpcollapse.geometry.mesher import TaggedMesh
+
+
+class BoundaryKind(str, Enum):
+    NO_SLIP = "no_slip"
+    COULOMB = "coulomb"
+    SLIP = "slip"
+    FREE_SURFACE = "free_surface"
+    PERIODIC = "periodic"
+
+
+#: Kinds with no penetration u·n = 0 (and w·n = 0 for the mesh velocity).
+SOLID = (BoundaryKind.NO_SLIP, BoundaryKind.COULOMB, BoundaryKind.SLIP)
+
+
+@dataclass(frozen=True)
+class Boundary:
+    """One tagged side of a scene.
+
+    tag: facet tag; name: names its friction term ``<name>_friction``; normal: outward unit
+    normal of a straight side (None for the free surface); friction: μ (coulomb);
+    translation: on the slave side of a periodic pair, the shift onto the master side.
+    """
+
+    tag: int
+    name: str
+    kind: BoundaryKind
+    normal: tuple[float, float] | None = None
+    friction: float = 0.0
+    translation: tuple[float, float] | None = None
+
+    @property
+    def tangent(self) -> tuple[float, float]:
+        """t = (−n_y, n_x)."""
+        nx, ny = self.normal
+        return (-ny, nx)
+
+    def normal_axis(self) -> int:
+        """The velocity component that u·n = 0 sets to zero: 0 for n = (±1, 0), 1 for (0, ±1)."""
+        nx, ny = self.normal
+        if ny == 0 and abs(nx) == 1:
+            return 0
+        if nx == 0 and abs(ny) == 1:
+            return 1
+        raise NotImplementedError(
+            f"boundary {self.name}: no penetration on a side of normal {self.normal} (not along "
+            "an axis) needs a slip constraint, not implemented yet")
+
+    @property
+    def has_friction(self) -> bool:
+        return self.kind == BoundaryKind.COULOMB and self.friction > 0
+
+
+class Scene(Protocol):
+    """A scene: ``shape`` (its ``geometry.shape``), built from the config by ``from_config``."""
+
+    shape: str
+
+    def mesh(self, comm) -> TaggedMesh:
+        """The initial mesh with its cell and facet tags, distributed over ``comm``."""
+
+    def boundaries(self) -> tuple[Boundary, ...]:
+        """One Boundary per facet tag (the order is that of the friction terms)."""
+
+    def initial_velocity(self) -> Callable[[np.ndarray], np.ndarray]:
+        """u(x, y) at t = 0, for ``Function.interpolate``."""
+
+    def extent(self, x: np.ndarray) -> tuple[float, float]:
+        """(front, maximum height) of the local nodes ``x`` (n, 3); −inf for no nodes."""
+
+    def write_msh(self, path: Path) -> Path:
+        """Write the initial mesh to a gmsh ``.msh`` file (``dpcollapse mesh``)."""
+
+
+def initial_velocity(velocity: str, height: float, surface_speed: float):
+    """rest: u = 0; half_poiseuille: u = (U_s (2y/h − y²/h²), 0) along the bed y = 0."""
+    h, us = height, surface_speed
+    if velocity == "half_poiseuille":
+        return lambda x: np.vstack([us * (2 * x[1] / h - (x[1] / h) ** 2), np.zeros(x.shape[1])])
+    return lambda x: np.zeros((2, x.shape[1]))
+
+
+def bed_boundary(tag: int, condition: str, mu: float) -> Boundary:
+    """The bed y = 0 (n = (0, −1)): Coulomb friction μ (slip when μ = 0) or no slip."""
+    if condition == "no_slip":
+        return Boundary(tag, "bed", BoundaryKind.NO_SLIP, (0.0, -1.0))
+    kind = BoundaryKind.COULOMB if mu > 0 else BoundaryKind.SLIP
+    return Boundary(tag, "bed", kind, (0.0, -1.0), friction=mu)
+
+
+def top_extent(x: np.ndarray) -> tuple[float, float]:
+    """Front = largest x, maximum height = largest y (slope coordinates, bed at y = 0)."""
+    if not len(x):
+        return -np.inf, -np.inf
+    return float(x[:, 0].max()), float(x[:, 1].max())

@@ -1,0 +1,82 @@
+"""The trapezoidal mass of seed 000 against a left wall, on a rigid bed (slope coordinates).
+
+Vertices (0, 0), (l0, 0), (l0 − h0/tan α0, h0), (0, h0). Boundaries: the bed y = 0
+(Coulomb friction μ_b or no slip), the free surface (flank and top) and the wall x = 0
+(Coulomb friction μ_l; frictionless slip when μ_l = 0). ``geometry.mesh_file`` replaces the
+meshed trapezoid by a gmsh file with the same physical tags.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from dpcollapse.geometry.mesher import (
+    BED,
+    SURFACE,
+    WALL,
+    TaggedMesh,
+    mesh_polygon,
+    read_msh,
+    write_polygon_msh,
+)
+from dpcollapse.geometry.trapezoid import trapezoid_polygon
+from dpcollapse.scenes.base import (
+    Boundary,
+    BoundaryKind,
+    bed_boundary,
+    initial_velocity,
+    top_extent,
+)
+
+
+@dataclass(frozen=True)
+class TrapezoidScene:
+    shape = "trapezoid"
+
+    height: float
+    base_length: float
+    flank_angle: float
+    mesh_size: float
+    surface_mesh_size: float | None
+    mesh_file: Path | None
+    bed_condition: str
+    mu_bed: float
+    mu_wall: float
+    velocity: str = "rest"
+    surface_speed: float = 0.0
+
+    @classmethod
+    def from_config(cls, cfg) -> TrapezoidScene:
+        g, b = cfg.geometry, cfg.boundary
+        return cls(g.height, g.base_length, g.flank_angle, g.mesh_size, g.surface_mesh_size,
+                   g.mesh_file, b.bed_condition, b.mu_bed, b.mu_wall, cfg.initial.velocity,
+                   cfg.initial.surface_speed)
+
+    def polygon(self):
+        return trapezoid_polygon(self.height, self.base_length, self.flank_angle)
+
+    def mesh(self, comm) -> TaggedMesh:
+        if self.mesh_file:
+            return read_msh(comm, self.mesh_file)
+        points, tags = self.polygon() if comm.rank == 0 else (None, None)
+        return mesh_polygon(comm, points, tags, self.mesh_size, self.surface_mesh_size)
+
+    def boundaries(self) -> tuple[Boundary, ...]:
+        wall = BoundaryKind.COULOMB if self.mu_wall > 0 else BoundaryKind.SLIP
+        return (bed_boundary(BED, self.bed_condition, self.mu_bed),
+                Boundary(WALL, "wall", wall, (-1.0, 0.0), friction=self.mu_wall),
+                Boundary(SURFACE, "surface", BoundaryKind.FREE_SURFACE))
+
+    def initial_velocity(self):
+        return initial_velocity(self.velocity, self.height, self.surface_speed)
+
+    def extent(self, x):
+        return top_extent(x)
+
+    def write_msh(self, path: Path) -> Path:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        points, tags = self.polygon()
+        write_polygon_msh(path, points, tags, self.mesh_size, self.surface_mesh_size)
+        return path

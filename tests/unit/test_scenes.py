@@ -1,0 +1,88 @@
+"""Scenes: the boundary kinds and normals they state, their initial meshes with cell tags,
+and ``dpcollapse mesh`` writing the scene of the config (it wrote a trapezoid for a layer)."""
+
+import math
+
+import numpy as np
+import pytest
+import ufl
+from dolfinx import fem
+from mpi4py import MPI
+
+from dpcollapse import compat
+from dpcollapse.cli import main
+from dpcollapse.config import load_config
+from dpcollapse.geometry.mesher import BED, DOMAIN, LEFT, RIGHT, SURFACE, WALL, read_msh
+from dpcollapse.scenes.base import Boundary, BoundaryKind
+from dpcollapse.scenes.layer import LayerScene
+from dpcollapse.scenes.registry import scene, scene_classes
+from dpcollapse.scenes.trapezoid import TrapezoidScene
+from tests.helpers import ROOT
+
+
+def _area(mesh):
+    return mesh.comm.allreduce(fem.assemble_scalar(fem.form(1.0 * ufl.dx(domain=mesh))), op=MPI.SUM)
+
+
+def test_registry_finds_every_scene_module():
+    classes = scene_classes()
+    assert classes["trapezoid"] is TrapezoidScene and classes["layer"] is LayerScene
+
+
+def test_trapezoid_boundaries():
+    """Bed y = 0 with Coulomb μ_b (n = (0, −1), t = (1, 0)), wall x = 0 with μ_l
+    (n = (−1, 0)), free surface; the wall becomes frictionless slip at μ_l = 0 and the bed
+    no slip with bed_condition no_slip."""
+    bed, wall, surface = scene(load_config(ROOT / "configs/rigid.yaml")).boundaries()
+    assert (bed.tag, bed.kind, bed.normal, bed.tangent) == (BED, BoundaryKind.COULOMB, (0.0, -1.0), (1.0, 0.0))
+    assert bed.friction == pytest.approx(math.tan(math.radians(25.5)))
+    assert (wall.tag, wall.kind, wall.normal, wall.normal_axis()) == (WALL, BoundaryKind.COULOMB, (-1.0, 0.0), 0)
+    assert wall.friction == pytest.approx(math.tan(math.radians(10.2)))
+    assert (surface.tag, surface.kind) == (SURFACE, BoundaryKind.FREE_SURFACE)
+    cfg = load_config(ROOT / "configs/rigid.yaml", ["boundary.wall_friction_angle=0",
+                                                    "boundary.bed_condition=no_slip"])
+    bed, wall, _ = scene(cfg).boundaries()
+    assert bed.kind == BoundaryKind.NO_SLIP and wall.kind == BoundaryKind.SLIP and not wall.has_friction
+
+
+def test_layer_boundaries():
+    """No-slip bed, free surface and a periodic pair: x = L is tied to x = 0 by (−L, 0)."""
+    cfg = load_config(ROOT / "configs/plug.yaml")
+    bounds = {b.tag: b for b in scene(cfg).boundaries()}
+    assert bounds[BED].kind == BoundaryKind.NO_SLIP and bounds[SURFACE].kind == BoundaryKind.FREE_SURFACE
+    assert bounds[LEFT].kind == bounds[RIGHT].kind == BoundaryKind.PERIODIC
+    assert bounds[RIGHT].translation == (-cfg.geometry.base_length, 0.0) and bounds[LEFT].translation is None
+
+
+def test_no_penetration_needs_an_axis_parallel_side():
+    slanted = Boundary(7, "hopper", BoundaryKind.SLIP, (-math.sqrt(0.5), -math.sqrt(0.5)))
+    with pytest.raises(NotImplementedError, match="hopper"):
+        slanted.normal_axis()
+
+
+@pytest.mark.parametrize("config, area", [("rigid.yaml", None), ("plug.yaml", 0.05 * 0.025)])
+def test_initial_mesh_has_cell_and_facet_tags(config, area):
+    cfg = load_config(ROOT / "configs" / config, ["geometry.mesh_size=0.005"] if area else
+                      ["geometry.mesh_size=0.03"])
+    tagged = scene(cfg).mesh(MPI.COMM_SELF)
+    n = compat.num_owned_cells(tagged.mesh)
+    ct = tagged.cell_tags
+    assert len(ct.indices) == n and set(np.unique(ct.values)) == {DOMAIN}
+    assert _area(tagged.mesh) == pytest.approx(area or cfg.geometry.area, rel=1e-12)
+
+
+def test_mesh_command_writes_the_periodic_layer(tmp_path):
+    """`dpcollapse mesh configs/plug.yaml`: the layer [0, L] × [0, h] with its bed, surface
+    and periodic sides, nodes on x = 0 and x = L at the same heights (it was a trapezoid)."""
+    out = tmp_path / "plug.msh"
+    assert main(["mesh", str(ROOT / "configs/plug.yaml"), "--out", str(out)]) == 0
+    tagged = read_msh(MPI.COMM_SELF, out)
+    assert set(np.unique(tagged.facet_tags.values)) == {BED, SURFACE, LEFT, RIGHT}
+    x = tagged.mesh.geometry.x
+    assert x[:, 0].min() == 0.0 and x[:, 0].max() == pytest.approx(0.025, abs=1e-15)
+    assert x[:, 1].min() == 0.0 and x[:, 1].max() == pytest.approx(0.05, abs=1e-15)
+    assert _area(tagged.mesh) == pytest.approx(0.025 * 0.05, rel=1e-12)
+    assert compat.num_owned_cells(tagged.mesh) == 2 * 5 * 10   # the divisions of layer_mesh
+    left = np.sort(x[np.isclose(x[:, 0], 0.0), 1])
+    right = np.sort(x[np.isclose(x[:, 0], 0.025), 1])
+    np.testing.assert_allclose(left, right, atol=1e-14)
