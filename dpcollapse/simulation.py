@@ -41,7 +41,7 @@ from dpcollapse.domain.base import make_domain
 from dpcollapse.errors import ConfigError, ConvergenceError, Interrupted, MeshError
 from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.scenes.registry import build_mesh
-from dpcollapse.io.checkpoint import load_checkpoint
+from dpcollapse.io.checkpoint import load_checkpoint, previous_path
 from dpcollapse.io.diagnostics import DiagnosticsWriter
 from dpcollapse.io.runinfo import RunInfo
 from dpcollapse.io.exports import CheckpointExport, FieldExport
@@ -105,8 +105,21 @@ class Progress:
             self.bar = None
 
 
-def _raise_interrupt(signum, frame):
-    raise KeyboardInterrupt
+class _StopRequest:
+    """SIGINT/SIGTERM during the loop: the first asks the loop to stop after the step in
+    progress (so the checkpoint holds the last accepted step); a second stops at once."""
+
+    def __init__(self):
+        self.signal: int | None = None
+
+    def __call__(self, signum, frame):
+        if self.signal is not None:
+            raise KeyboardInterrupt
+        self.signal = signum
+
+    def requested(self, comm) -> bool:
+        """Whether any rank was signalled (collective: every rank stops at the same step)."""
+        return bool(comm.allreduce(self.signal is not None, op=MPI.LOR))
 
 
 class Simulation:
@@ -128,7 +141,8 @@ class Simulation:
             self.run_dir.mkdir(parents=True, exist_ok=True)
         comm.barrier()
         self.checkpoint_path = self.run_dir / "checkpoint.npz"
-        resume = resume and self.checkpoint_path.exists()
+        resume = resume and (self.checkpoint_path.exists()
+                             or previous_path(self.checkpoint_path).exists())
         if resume:
             tagged, u, p, state, extra = load_checkpoint(self.checkpoint_path, comm)
             self.state = LoopState.from_dict(state)
@@ -356,7 +370,8 @@ class Simulation:
         Under MPI it must return the same value on every rank."""
         cfg, st = self.cfg, self.state
         progress = Progress(self.comm, cfg.time.end_time, cfg.time.output_every, self.quiet)
-        previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+        stop_request = _StopRequest()
+        previous = {s: signal.signal(s, stop_request) for s in (signal.SIGTERM, signal.SIGINT)}
         try:
             while st.t < cfg.time.end_time - 1e-12:
                 dt, iterations, residual = self._step()
@@ -383,6 +398,10 @@ class Simulation:
                 if at_rest or stop:
                     st.status = "at_rest" if at_rest else "stopped_by_observer"
                     break
+                if stop_request.requested(self.comm):   # after an accepted step: save it
+                    self._output()
+                    self._checkpoint()
+                    raise KeyboardInterrupt
             else:
                 st.status = "end_time"
                 self._output()
@@ -392,11 +411,21 @@ class Simulation:
             raise Interrupted(f"stopped at t = {st.t:.4f} s; the run directory is valid, "
                               f"continue with --resume") from None
         except (ConvergenceError, MeshError) as exc:
+            if "t = " not in str(exc):      # say when
+                exc = type(exc)(f"after t = {st.t:.4f} s: {exc}")
             self.events.emit("failure", self, exc)
             self._finish("failed", progress, error=str(exc))
+            raise exc from None
+        except Exception as exc:       # an I/O failure or a bug: say so in run.json if we can
+            self.events.emit("failure", self, exc)
+            try:
+                self._finish("failed", progress, error=f"{type(exc).__name__}: {exc}")
+            except Exception:          # e.g. the disk is still full
+                pass
             raise
         finally:
-            signal.signal(signal.SIGTERM, previous)
+            for s, handler in previous.items():
+                signal.signal(s, handler)
         return self._finish(st.status, progress)
 
     def _finish(self, status: str, progress: Progress, error: str | None = None) -> dict:

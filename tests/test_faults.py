@@ -6,6 +6,7 @@ has only complete rows, the checkpoint loads)."""
 from __future__ import annotations
 
 import csv
+import json
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -178,3 +179,109 @@ def test_sigterm_during_start_up_is_an_interrupt(tmp_path):
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130, err
     assert "interrupted" in _one_error_line(err)
+
+
+def test_a_file_that_is_not_a_mesh_is_bad_input(tmp_path, capsys):
+    bad = tmp_path / "bad.msh"
+    bad.write_text("not a mesh\n")
+    assert main(["run", RIGID, "--set", f"geometry.mesh_file={bad}", "--out",
+                 str(tmp_path / "run"), "--quiet"]) == 2
+    line = _one_error_line(capsys.readouterr().err)
+    assert "geometry.mesh_file" in line and "not a gmsh mesh" in line
+
+
+def test_a_mesh_without_physical_groups_is_bad_input(tmp_path, capsys):
+    import gmsh
+
+    path = tmp_path / "plain.msh"
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.occ.addRectangle(0, 0, 0, 0.3, 0.2)
+        gmsh.model.occ.synchronize()
+        gmsh.model.mesh.generate(2)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
+    assert main(["run", RIGID, "--set", f"geometry.mesh_file={path}", "--out",
+                 str(tmp_path / "run"), "--quiet"]) == 2
+    assert "no physical surface group" in _one_error_line(capsys.readouterr().err)
+
+
+def test_mesh_velocity_breakdown_is_a_mesh_failure_with_the_time(tmp_path, capsys, monkeypatch):
+    """The LU of the mesh-velocity problem breaking down (PETSc reason -11 on a degenerated
+    mesh, seen on a 40° bed with μ(I)) is exit 4 with the time and advice, run.json failed.
+    The breakdown is injected into the third mesh-velocity solve."""
+    from dpcollapse.solvers.linear import DirectSolver
+
+    calls = {"ale": 0}
+    original = DirectSolver.solve
+
+    def solve(self, b, x):
+        if self.ksp.getOptionsPrefix() == "dpc_ale_":
+            calls["ale"] += 1
+            if calls["ale"] == 3:
+                raise RuntimeError("linear solve failed (PETSc reason -11)")
+        return original(self, b, x)
+
+    monkeypatch.setattr(DirectSolver, "solve", solve)
+    out = tmp_path / "run"
+    assert _run(out, end=0.01) == 4
+    line = _one_error_line(capsys.readouterr().err)
+    assert "mesh-velocity solve failed" in line and "after t = " in line
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "failed" and "mesh-velocity" in info["summary"]["error"]
+
+
+def test_a_bug_is_exit_1_with_the_traceback_in_error_log(tmp_path, capsys, monkeypatch):
+    from dpcollapse.simulation import Simulation
+
+    calls = {"n": 0}
+    original = Simulation._check_energy
+
+    def check_energy(self, m):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise ZeroDivisionError("injected")
+        return original(self, m)
+
+    monkeypatch.setattr(Simulation, "_check_energy", check_energy)
+    out = tmp_path / "run"
+    assert _run(out, end=0.01) == 1
+    line = _one_error_line(capsys.readouterr().err)
+    assert "internal error" in line and "error.log" in line
+    assert "ZeroDivisionError: injected" in (out / "error.log").read_text()
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "failed" and "injected" in info["summary"]["error"]
+
+
+def test_an_interrupt_checkpoints_the_last_accepted_step(tmp_path):
+    """SIGTERM mid-run: the run stops after the step in progress, writes its output and a
+    checkpoint of that step (not the last periodic one), and a resume recomputes nothing."""
+    import signal
+    import subprocess
+    import time
+
+    from tests.helpers import clean_env, dpcollapse_cmd
+
+    out = tmp_path / "run"
+    args = ["run", RIGID, "--set", "geometry.mesh_size=0.04", "--set", "time.end_time=1.0",
+            "--set", "time.checkpoint_every=1000", "--set", "time.output_every=1000",
+            "--out", str(out), "--quiet"]
+    proc = subprocess.Popen(dpcollapse_cmd() + args, env=clean_env(), cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and not (out / "diagnostics.csv").exists():
+        time.sleep(0.1)
+    while time.time() < deadline and len((out / "diagnostics.csv").read_text().splitlines()) < 6:
+        time.sleep(0.1)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "--resume" in _one_error_line(err)
+    d = read_diagnostics(out / "diagnostics.csv")
+    with np.load(out / "checkpoint.npz") as data:
+        state = json.loads(str(data["state"]))
+    assert state["step"] == d["step"][-1] >= 5
+    assert json.loads((out / "run.json").read_text())["status"] == "interrupted"
+    assert_whole(out)

@@ -60,7 +60,15 @@ class MeshMotion:
     def compute(self) -> None:
         """Solve for w from the accepted velocity uⁿ on the current mesh."""
         self.solver.set_operator(self.system.assemble_matrix())
-        self.solver.solve(self.system.assemble_vector(), compat.petsc_vec(self.w))
+        try:
+            self.solver.solve(self.system.assemble_vector(), compat.petsc_vec(self.w))
+        except RuntimeError as exc:     # LU breakdown: the mesh has degenerated
+            from dpcollapse.errors import MeshError
+
+            raise MeshError(f"the mesh-velocity solve failed ({exc}): the mesh has "
+                            "degenerated; a smaller time.dt or geometry.mesh_size, or a "
+                            "larger numerics.remesh_min_angle (remesh sooner), may carry it "
+                            "further") from None
         self.w.x.scatter_forward()
 
     def node_velocity(self) -> np.ndarray:

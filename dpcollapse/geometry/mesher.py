@@ -156,11 +156,40 @@ def read_msh(comm: MPI.Comm, path) -> TaggedMesh:
     (DOLFINx 0.5.2's ``read_from_msh`` is broken — it returns an undefined name —
     so the file is merged into our own gmsh session on rank 0.)
     """
+    from dpcollapse.errors import ConfigError
+
     if comm.rank == 0:
         with gmsh_session() as gmsh:
-            gmsh.merge(str(path))
+            problem = comm.bcast(_msh_problem(gmsh, path), root=0)
+            if problem:
+                raise ConfigError(problem)
             mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
     else:
+        problem = comm.bcast(None, root=0)
+        if problem:
+            raise ConfigError(problem)
         mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
     mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
     return TaggedMesh(mesh, facet_tags, cell_tags)
+
+
+def _msh_problem(gmsh, path) -> str | None:
+    """Merge ``path`` into the gmsh session; what makes it unusable as a scene mesh, or None:
+    not a gmsh file, no physical surface (the cells), or no BED/WALL/SURFACE line groups."""
+    try:
+        gmsh.merge(str(path))
+    except Exception as exc:      # gmsh raises a bare Exception with its parser's message
+        return f"geometry.mesh_file = {path}: not a gmsh mesh ({' '.join(str(exc).split())})"
+    groups = gmsh.model.getPhysicalGroups()
+    surfaces = [tag for dim, tag in groups if dim == 2]
+    lines = sorted(tag for dim, tag in groups if dim == 1)
+    if not surfaces:
+        return (f"geometry.mesh_file = {path}: no physical surface group (the mass's cells "
+                "must be in one)")
+    missing = [name for name, tag in (("BED", BED), ("WALL", WALL), ("SURFACE", SURFACE))
+               if tag not in lines]
+    if missing:
+        return (f"geometry.mesh_file = {path}: no physical line group "
+                f"{', '.join(f'{n}={t}' for n, t in zip(missing, [globals()[m] for m in missing]))}"
+                f" (found: {lines or 'none'})")
+    return None
