@@ -409,3 +409,10 @@ def test_the_documented_sweep_file_is_valid(tmp_path):
     assert sw.cases[1].name == ("bed_angle=10__rheology=mu_i__dt=0.001__dt_min=1.0e-06"
                                 "__no_walls")
     assert sw.spec.slurm.time == "01:00:00" and sw.spec.collect == ["area_drift", "remeshes"]
+
+
+def test_column_runout_example_is_valid():
+    """configs/sweeps/column_runout.yaml: six aspect ratios of the column scene, all valid."""
+    sw = load_sweep(ROOT / "configs" / "sweeps" / "column_runout.yaml")
+    heights = sorted(c.config["geometry"]["height"] for c in sw.cases)
+    assert heights == [0.035, 0.07, 0.14, 0.21, 0.28, 0.42]
