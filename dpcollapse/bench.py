@@ -364,8 +364,9 @@ def _mpi_env(nprocs: int) -> dict:
     if hasattr(os, "geteuid") and os.geteuid() == 0:
         env.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
         env.setdefault("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
-    if nprocs > (os.cpu_count() or 1):
+    if nprocs > (os.cpu_count() or 1):   # Open MPI 4, and 5 (PRRTE)
         env.setdefault("OMPI_MCA_rmaps_base_oversubscribe", "1")
+        env.setdefault("PRTE_MCA_rmaps_default_mapping_policy", ":oversubscribe")
     return env
 
 

@@ -210,6 +210,8 @@ def run(config: Path, overrides: tuple[str, ...], out: str | None, quiet: bool,
     from dpcollapse.config import config_to_dict
     from dpcollapse.io.rundir import claim_on_root
 
+    _interrupt_on_signals()   # again: Open MPI 5's MPI_Init resets SIGINT to its default
+
     run_dir = cfg.output.directory if out is None else out
     mode = "resume" if resume else "overwrite" if overwrite else "new"
     global _error_log_dir
@@ -398,12 +400,18 @@ def _interrupt(signum, frame):
     raise KeyboardInterrupt
 
 
+def _interrupt_on_signals() -> None:
+    """SIGINT and SIGTERM raise KeyboardInterrupt (exit 130 with one line)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, _interrupt)
+
+
 def entry() -> None:
     """Console script ``dpcollapse``: SIGTERM is an interrupt from the start (exit 130 with
     one line, also while the run is being set up), as Ctrl-C is."""
-    import signal
-
-    signal.signal(signal.SIGTERM, _interrupt)
+    _interrupt_on_signals()
     install_excepthook()
     code = main()
     xdmf = sys.modules.get("dpcollapse.io.xdmf")

@@ -24,6 +24,12 @@ def clean_env():
     return env
 
 
+#: Let mpirun start more ranks than cores: Open MPI 4 reads the first, Open MPI 5 (PRRTE,
+#: Debian 13 and later) the second.
+OVERSUBSCRIBE = {"OMPI_MCA_rmaps_base_oversubscribe": "1",
+                 "PRTE_MCA_rmaps_default_mapping_policy": ":oversubscribe"}
+
+
 def paraview_summaries(*masters):
     """One pvpython start-up reading every master; the JSON summaries in order."""
     pvpython = shutil.which("pvpython")

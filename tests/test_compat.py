@@ -18,7 +18,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from dpcollapse import compat
-from tests.helpers import clean_env
+from tests.helpers import OVERSUBSCRIBE, clean_env
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -162,7 +162,7 @@ def test_an_error_on_one_rank_ends_the_whole_job(tmp_path, mode):
     script = tmp_path / "fail.py"
     script.write_text(_SCRIPT)
     env = clean_env()
-    env.update(OMPI_MCA_rmaps_base_oversubscribe="1", DPCOLLAPSE_MPI_GRACE="2",
+    env.update(OVERSUBSCRIBE, DPCOLLAPSE_MPI_GRACE="2",
                PYTHONPATH=str(ROOT) + os.pathsep + env.get("PYTHONPATH", ""))
     t0 = time.monotonic()
     proc = subprocess.run([mpirun, "-n", "2", sys.executable, str(script), mode],

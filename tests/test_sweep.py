@@ -21,7 +21,7 @@ from dpcollapse.cli import main
 from dpcollapse.sweep.executors import case_command, child_env
 from dpcollapse.sweep.naming import case_names, is_safe_name
 from dpcollapse.sweep.spec import load_sweep
-from tests.helpers import ROOT, clean_env
+from tests.helpers import OVERSUBSCRIBE, ROOT, clean_env
 
 RIGID = ROOT / "configs" / "rigid.yaml"
 PY = [sys.executable, "-m", "dpcollapse.cli"]
@@ -44,7 +44,7 @@ NAMES = ["friction_angle=25.5", "friction_angle=30", "fails"]
 def _env():
     env = clean_env()
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
-    env.update(OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+    env.update(OVERSUBSCRIBE, OPENBLAS_NUM_THREADS="1")
     return env
 
 
