@@ -175,7 +175,8 @@ def read_msh(comm: MPI.Comm, path) -> TaggedMesh:
 
 def _msh_problem(gmsh, path) -> str | None:
     """Merge ``path`` into the gmsh session; what makes it unusable as a scene mesh, or None:
-    not a gmsh file, no physical surface (the cells), or no BED/WALL/SURFACE line groups."""
+    not a gmsh file, no physical surface (the cells) or no physical line group (the tagged
+    boundary; which tags a scene needs is the scene's business)."""
     try:
         gmsh.merge(str(path))
     except Exception as exc:      # gmsh raises a bare Exception with its parser's message
@@ -186,10 +187,7 @@ def _msh_problem(gmsh, path) -> str | None:
     if not surfaces:
         return (f"geometry.mesh_file = {path}: no physical surface group (the mass's cells "
                 "must be in one)")
-    missing = [name for name, tag in (("BED", BED), ("WALL", WALL), ("SURFACE", SURFACE))
-               if tag not in lines]
-    if missing:
-        return (f"geometry.mesh_file = {path}: no physical line group "
-                f"{', '.join(f'{n}={t}' for n, t in zip(missing, [globals()[m] for m in missing]))}"
-                f" (found: {lines or 'none'})")
+    if not lines:
+        return (f"geometry.mesh_file = {path}: no physical line group (the boundary tags: "
+                f"BED={BED}, WALL={WALL}, SURFACE={SURFACE}, LEFT={LEFT}, RIGHT={RIGHT})")
     return None
