@@ -33,6 +33,7 @@ import numpy as np
 
 from dpcollapse import compat
 from dpcollapse.bench import (
+    Instrument,
     _csv_value,
     _fmt,
     _global_dofs,
@@ -65,26 +66,11 @@ COLUMNS = ("kind", "solver", "np", "mesh_size", "dofs", "epsilon", "t", "status"
            "lu_over_iterative", "wall_s", "front")
 
 
-class SolveTimer:
+class SolveTimer(Instrument):
     """Set-up and solve time of the flow solves of every discretization it is shown
     (``track``, a subscriber of the run's ``discretization`` event), and the Krylov
     iterations of each solve: the solvers keep these counts (``solvers.linear``,
     ``solvers.iterative``), nothing is wrapped."""
-
-    def __init__(self):
-        self.flows: list = []
-
-    def track(self, sim, disc) -> None:
-        if all(flow is not disc.flow for flow in self.flows):
-            self.flows.append(disc.flow)
-
-    def subscribe(self, events) -> SolveTimer:
-        events.subscribe("discretization", self.track)
-        return self
-
-    @property
-    def wrapped(self) -> int:
-        return len(self.flows)
 
     @property
     def setup(self) -> float:
