@@ -26,7 +26,7 @@ from typing import Protocol
 
 import numpy as np
 
-from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.geometry.mesher import TaggedMesh, mesh_polygon, read_msh, write_polygon_msh
 
 
 class BoundaryKind(str, Enum):
@@ -121,3 +121,22 @@ def top_extent(x: np.ndarray) -> tuple[float, float]:
     if not len(x):
         return -np.inf, -np.inf
     return float(x[:, 0].max()), float(x[:, 1].max())
+
+
+class PolygonScene:
+    """Mesh and .msh output of a scene that is one tagged polygon (``polygon()`` on rank 0),
+    or the gmsh file ``mesh_file`` when one is given. The scene dataclass provides
+    ``polygon``, ``mesh_file``, ``mesh_size`` and ``surface_mesh_size``."""
+
+    def mesh(self, comm) -> TaggedMesh:
+        if self.mesh_file:
+            return read_msh(comm, self.mesh_file)
+        points, tags = self.polygon() if comm.rank == 0 else (None, None)
+        return mesh_polygon(comm, points, tags, self.mesh_size, self.surface_mesh_size)
+
+    def write_msh(self, path: Path) -> Path:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        points, tags = self.polygon()
+        write_polygon_msh(path, points, tags, self.mesh_size, self.surface_mesh_size)
+        return path

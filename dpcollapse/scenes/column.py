@@ -18,14 +18,11 @@ from dpcollapse.geometry.mesher import (
     BED,
     SURFACE,
     WALL,
-    TaggedMesh,
-    mesh_polygon,
-    read_msh,
-    write_polygon_msh,
 )
 from dpcollapse.scenes.base import (
     Boundary,
     BoundaryKind,
+    PolygonScene,
     bed_boundary,
     initial_velocity,
     top_extent,
@@ -33,7 +30,7 @@ from dpcollapse.scenes.base import (
 
 
 @dataclass(frozen=True)
-class ColumnScene:
+class ColumnScene(PolygonScene):
     shape = "column"
 
     height: float
@@ -58,12 +55,6 @@ class ColumnScene:
                            [0.0, self.height]])
         return points, np.array([BED, SURFACE, SURFACE, WALL], dtype=np.int32)
 
-    def mesh(self, comm) -> TaggedMesh:
-        if self.mesh_file:
-            return read_msh(comm, self.mesh_file)
-        points, tags = self.polygon() if comm.rank == 0 else (None, None)
-        return mesh_polygon(comm, points, tags, self.mesh_size, self.surface_mesh_size)
-
     def boundaries(self) -> tuple[Boundary, ...]:
         return (bed_boundary(BED, self.bed_condition, self.mu_bed),
                 Boundary(WALL, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0)),
@@ -74,10 +65,3 @@ class ColumnScene:
 
     def extent(self, x):
         return top_extent(x)
-
-    def write_msh(self, path: Path) -> Path:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        points, tags = self.polygon()
-        write_polygon_msh(path, points, tags, self.mesh_size, self.surface_mesh_size)
-        return path

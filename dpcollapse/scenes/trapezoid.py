@@ -15,15 +15,12 @@ from dpcollapse.geometry.mesher import (
     BED,
     SURFACE,
     WALL,
-    TaggedMesh,
-    mesh_polygon,
-    read_msh,
-    write_polygon_msh,
 )
 from dpcollapse.geometry.trapezoid import trapezoid_polygon
 from dpcollapse.scenes.base import (
     Boundary,
     BoundaryKind,
+    PolygonScene,
     bed_boundary,
     initial_velocity,
     top_extent,
@@ -31,7 +28,7 @@ from dpcollapse.scenes.base import (
 
 
 @dataclass(frozen=True)
-class TrapezoidScene:
+class TrapezoidScene(PolygonScene):
     shape = "trapezoid"
 
     height: float
@@ -56,12 +53,6 @@ class TrapezoidScene:
     def polygon(self):
         return trapezoid_polygon(self.height, self.base_length, self.flank_angle)
 
-    def mesh(self, comm) -> TaggedMesh:
-        if self.mesh_file:
-            return read_msh(comm, self.mesh_file)
-        points, tags = self.polygon() if comm.rank == 0 else (None, None)
-        return mesh_polygon(comm, points, tags, self.mesh_size, self.surface_mesh_size)
-
     def boundaries(self) -> tuple[Boundary, ...]:
         wall = BoundaryKind.COULOMB if self.mu_wall > 0 else BoundaryKind.SLIP
         return (bed_boundary(BED, self.bed_condition, self.mu_bed),
@@ -73,10 +64,3 @@ class TrapezoidScene:
 
     def extent(self, x):
         return top_extent(x)
-
-    def write_msh(self, path: Path) -> Path:
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        points, tags = self.polygon()
-        write_polygon_msh(path, points, tags, self.mesh_size, self.surface_mesh_size)
-        return path
