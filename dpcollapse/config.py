@@ -677,8 +677,8 @@ def _from_validation_error(exc: ValidationError) -> ConfigError:
         others = [name for name, cls in _UNIONS.get(loc[0], {}).items()
                   if len(loc) == 2 and loc[-1] in cls.model_fields and cls is not parent]
         if tag and others:
-            return ConfigError(f"{key}: not a key of this {loc[0]}.{tag}; it belongs to "
-                               f"{loc[0]}.{tag} = {', '.join(others)}")
+            return ConfigError(f"{key}: unknown key; it belongs to {loc[0]}.{tag} = "
+                               f"{' or '.join(others)}")
         close = get_close_matches(loc[-1], names, n=1)
         hint = f"did you mean '{close[0]}'?" if close else "allowed: " + ", ".join(names)
         what = "unknown section" if len(loc) == 1 else "unknown key"
