@@ -204,3 +204,8 @@ def test_a_failure_stops_every_rank_alike(shared_tmp, comm, monkeypatch):
         simulation(COLUMN, SMALL, shared_tmp / "fail", comm=comm).run()
     messages = comm.allgather(str(failure.value))
     assert len(set(messages)) == 1 and failure.value.exit_code == 3
+
+
+def test_mesh_command_refuses_the_1d_model(capsys):
+    assert main(["mesh", str(COLUMN)]) == 2
+    assert "model.name = savage_hutter" in capsys.readouterr().err
