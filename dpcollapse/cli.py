@@ -171,6 +171,22 @@ def summary(cfg: Config, source: Path | str | None = None) -> str:
          f"  time: dt {t.dt:g} s, end {t.end_time:g} s, at most {t.max_steps} steps"),
         f"  output: {cfg.output.directory}",
     ]
+    if cfg.model.name == "savage_hutter":
+        from dpcollapse.models.savage_hutter.setup import setup_from_config
+
+        sh = setup_from_config(cfg)
+        basal = sh.model.basal
+        law = (f"mu(I): mu_s = {basal.mu_s:.4f}, mu_2 = {basal.mu_2:.4f}" if hasattr(basal, "i0")
+               else f"Coulomb mu_b = {basal.mu:.4f}")
+        lines[1:2] = [f"  depth-averaged Savage-Hutter model: basal friction {law} (from the "
+                      f"{sh.friction}), slope {sh.model.slope_deg:g} deg, alpha = "
+                      f"{sh.model.shape_factor:g}, order {sh.model.order}",
+                      f"  grid: {sh.grid.n_cells} cells on [{sh.grid.x_min:g}, {sh.grid.x_max:g}] m "
+                      f"(dx = {sh.grid.dx:.4g} m), {cfg.model.left} / {cfg.model.right} ends, "
+                      f"CFL {sh.model.cfl:g}"]
+        lines[-2] = (f"  time: steps of at most {t.dt:g} s (the CFL limit rules below it), "
+                     f"end {t.end_time:g} s")
+        return "\n".join(lines)
     if cfg.numerics.method == "augmented_lagrangian":
         from dpcollapse.models.stokes.augmented import augmented_settings
 

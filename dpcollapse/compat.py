@@ -311,6 +311,24 @@ def create_mesh(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray):
     return dmesh.create_mesh(comm, cells, x, domain)
 
 
+def create_interval_mesh(comm: MPI.Comm, edges: np.ndarray):
+    """A P1 interval mesh of the points ``edges`` (increasing x [m]) on the line y = 0 of
+    the plane (geometric dimension 2, so that outputs open like the 2D runs'); the points
+    are taken from rank 0."""
+    if _BASIX_ELEMENTS:
+        domain = ufl.Mesh(_basix_ufl.element("Lagrange", "interval", 1, shape=(2,)))
+    else:
+        cell = ufl.Cell("interval", geometric_dimension=2)
+        domain = ufl.Mesh(ufl.VectorElement("Lagrange", cell, 1, dim=2))
+    edges = np.asarray(edges, dtype=np.float64) if comm.rank == 0 else np.zeros(0)
+    x = np.column_stack([edges, np.zeros_like(edges)])
+    n = max(edges.size - 1, 0)
+    cells = np.column_stack([np.arange(n), np.arange(1, n + 1)]).astype(np.int64).reshape(-1, 2)
+    if _V011:
+        return dmesh.create_mesh(comm, cells, domain, x)
+    return dmesh.create_mesh(comm, cells, x, domain)
+
+
 def meshtags(mesh, dim: int, indices: np.ndarray, values: np.ndarray):
     order = np.argsort(indices)
     return dmesh.meshtags(mesh, dim, indices[order].astype(np.int32), values[order].astype(np.int32))

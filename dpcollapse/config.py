@@ -41,6 +41,9 @@ __all__ = [
     "GeometryConfig",
     "LayerGeometry",
     "MaterialConfig",
+    "ModelConfig",
+    "SavageHutterModel",
+    "StokesModel",
     "NumericsConfig",
     "OutputConfig",
     "TimeConfig",
@@ -396,6 +399,72 @@ class NumericsConfig(_Section):
         return self
 
 
+# model: one class per model (dpcollapse/models/), told apart by ``name``
+
+
+class StokesModel(_Section):
+    """The 2D model: incompressible flow of the material on the scene's mesh (its solver
+    settings are the ``numerics`` section)."""
+
+    name: Literal["stokes"] = _f(
+        "stokes", "", "Model: stokes (2D flow, numerics section) or savage_hutter (1D "
+        "depth-averaged, this section; docs/savage_hutter.md)")
+
+
+class SavageHutterModel(_Section):
+    """The depth-averaged Savage–Hutter model on a 1D grid along the bed (x down the slope
+    geometry.bed_angle): the scene's polygon as initial thickness, the basal friction from
+    the bed condition or the rheology (models/savage_hutter/setup.py, docs/savage_hutter.md)."""
+
+    name: Literal["savage_hutter"] = _f("savage_hutter", "", "The depth-averaged model")
+    basal_friction: Literal["auto", "bed", "rheology"] = _f(
+        "auto", "", "Basal friction mu_b: bed = Coulomb tan(boundary.bed_friction_angle); rheology "
+        "= the material's (drucker_prager: Coulomb mu_s; mu_i: mu(I) with the depth-averaged I); "
+        "auto = bed if boundary.bed_condition = coulomb and the bed angle is below "
+        "material.friction_angle, else rheology")
+    shape_factor: Number = _f(
+        1.0, "", "Shape factor alpha of the momentum flux alpha h u^2: 1 (plug profile) or 1.25 "
+        "(Bagnold profile)", ge=1, le=1.5)
+    alpha_depth: Number = _f(
+        1.0e-3, "m", "Below this thickness alpha tapers linearly to 1 (bounds the alpha > 1 front)",
+        gt=0)
+    order: Literal[1, 2] = _f(
+        1, "", "1: first-order HLL, forward Euler; 2: MUSCL (MC limiter) and Heun")
+    cfl: Number = _f(0.9, "", "CFL number: dt <= cfl dx/max|wave speed|", gt=0, le=1)
+    h_dry: Number = _f(1.0e-10, "m", "Thinner cells carry no momentum (dry)", ge=0)
+    front_threshold: Number = _f(
+        1.0e-3, "m", "Thickness that defines the front (furthest x where h crosses it)", gt=0)
+    n_cells: Count = _f(800, "", "Number of finite-volume cells on [x_min, x_max]", ge=2)
+    x_min: Number = _f(0.0, "m", "Upslope end of the 1D domain (the wall of the scene is at x = 0)")
+    x_max: Number | None = _f(
+        None, "m", "Downslope end of the 1D domain; null: base_length + 20 height")
+    left: Literal["wall", "open"] = _f(
+        "wall", "", "Upslope end: wall (reflective wall or symmetry plane) or open (outflow)")
+    right: Literal["wall", "open"] = _f("open", "", "Downslope end: wall or open")
+
+    @model_validator(mode="after")
+    def _interval(self) -> SavageHutterModel:
+        if self.x_max is not None and self.x_max <= self.x_min:
+            raise ConfigError(f"model.x_max = {_fmt(self.x_max)}: must be > model.x_min = "
+                              f"{_fmt(self.x_min)} (m)")
+        return self
+
+
+def _name_of(value: Any) -> str:
+    """The model class of a mapping or model: its ``name``, stokes when absent."""
+    if isinstance(value, dict):
+        return value.get("name", "stokes")
+    return getattr(value, "name", "stokes")
+
+
+ModelConfig = Annotated[
+    Annotated[StokesModel, Tag("stokes")] | Annotated[SavageHutterModel, Tag("savage_hutter")],
+    Discriminator(_name_of),
+]
+#: model.name -> its config class
+MODELS: dict[str, type[_Section]] = {"stokes": StokesModel, "savage_hutter": SavageHutterModel}
+
+
 class InitialConfig(_Section):
     """Initial velocity (the initial pressure comes from the first step's fixed point)."""
 
@@ -458,6 +527,7 @@ class Config(_Section):
     geometry: GeometryConfig = Field(default_factory=TrapezoidGeometry, description="Initial mass")
     material: MaterialConfig = Field(default_factory=MaterialConfig, description="Material")
     boundary: BoundaryConfig = Field(default_factory=BoundaryConfig, description="Friction")
+    model: ModelConfig = Field(default_factory=StokesModel, description="Model")
     numerics: NumericsConfig = Field(default_factory=NumericsConfig, description="Solvers")
     initial: InitialConfig = Field(default_factory=InitialConfig, description="Initial state")
     time: TimeConfig = Field(default_factory=TimeConfig, description="Time stepping")
@@ -465,6 +535,8 @@ class Config(_Section):
 
     @model_validator(mode="after")
     def _scene(self) -> Config:
+        if self.model.name == "savage_hutter":
+            self._depth_averaged()
         if self.geometry.shape == "layer" and self.numerics.ale:
             raise ConfigError("numerics.ale = true: a periodic layer has a fixed domain; "
                               "must be false with geometry.shape = layer")
@@ -477,6 +549,23 @@ class Config(_Section):
             raise ConfigError("numerics.linear_solver = 'iterative': not available on a periodic "
                               "layer (geometry.shape = layer); use mumps or superlu_dist")
         return self
+
+    def _depth_averaged(self) -> None:
+        """What the 1D model cannot represent is refused (one line each)."""
+        if self.geometry.shape not in ("trapezoid", "column"):
+            raise ConfigError(f"geometry.shape = {self.geometry.shape!r}: not available with "
+                              "model.name = savage_hutter; must be one of 'trapezoid', 'column'")
+        if self.initial.velocity != "rest":
+            raise ConfigError(f"initial.velocity = {self.initial.velocity!r}: must be 'rest' "
+                              "with model.name = savage_hutter")
+        if self.output.format != "xdmf":
+            raise ConfigError(f"output.format = {self.output.format!r}: must be 'xdmf' with "
+                              "model.name = savage_hutter")
+        m = self.model
+        x_max = m.x_max if m.x_max is not None else self.geometry.base_length + 20 * self.geometry.height
+        if m.x_min > 0 or x_max < self.geometry.base_length:
+            raise ConfigError(f"model.x_min = {_fmt(m.x_min)}, model.x_max = {_fmt(m.x_max)}: "
+                              f"the 1D domain must contain the mass [0, {self.geometry.base_length:g}] m")
 
     @property
     def gravity_vector(self) -> tuple[float, float]:
@@ -523,7 +612,9 @@ RENAMED: dict[tuple[str, str], str] = {}
 
 #: Sections whose value is one of several classes told apart by a tag (the tag appears in
 #: pydantic's error locations after the section name).
-_UNIONS: dict[str, dict[str, type[BaseModel]]] = {"geometry": GEOMETRIES}
+_UNIONS: dict[str, dict[str, type[BaseModel]]] = {"geometry": GEOMETRIES, "model": MODELS}
+#: the tag key of each union section
+_UNION_TAGS = {"geometry": "shape", "model": "name"}
 
 
 def _walk(loc: Sequence[str]) -> tuple[list[str], type[BaseModel] | None]:
@@ -582,13 +673,19 @@ def _from_validation_error(exc: ValidationError) -> ConfigError:
             return ConfigError(f"{key}: renamed; use {RENAMED[tuple(loc)]}")
         parent = _model_at(raw[:-1])
         names = list(parent.model_fields) if parent else []
+        tag = _UNION_TAGS.get(loc[0])
+        others = [name for name, cls in _UNIONS.get(loc[0], {}).items()
+                  if len(loc) == 2 and loc[-1] in cls.model_fields and cls is not parent]
+        if tag and others:
+            return ConfigError(f"{key}: unknown key; it belongs to {loc[0]}.{tag} = "
+                               f"{' or '.join(others)}")
         close = get_close_matches(loc[-1], names, n=1)
         hint = f"did you mean '{close[0]}'?" if close else "allowed: " + ", ".join(names)
         what = "unknown section" if len(loc) == 1 else "unknown key"
         return ConfigError(f"{key}: {what}; {hint}")
     if kind == "union_tag_invalid":
         ctx = err.get("ctx", {})
-        return ConfigError(f"{key}.shape = {_fmt(ctx.get('tag'))}: must be one of "
+        return ConfigError(f"{key}.{_UNION_TAGS.get(key, 'shape')} = {_fmt(ctx.get('tag'))}: must be one of "
                            f"{ctx.get('expected_tags', '?')}")
     value = _fmt(err.get("input"))
     parent = _model_at(raw[:-1])

@@ -2,7 +2,9 @@
 
 ``Discretization`` bundles the regularized flow, the ALE mesh motion, the output functions
 and the integrals (area, kinetic energy, gravity's moment) of one mesh; the time loop in
-``simulation`` replaces it on every remesh or landing.
+``simulation`` replaces it on every remesh or landing. ``StokesFactory`` is the 2D model of
+``model.name = stokes`` as the loop sees it (``loop.ModelFactory``): its domain, its initial
+discretization, a new one per remesh, its checkpoints.
 """
 
 from __future__ import annotations
@@ -16,12 +18,15 @@ from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.ale.motion import MeshMotion, cell_orientation, quality
+from dpcollapse.ale.quality import courant_rate
 from dpcollapse.config import Config
+from dpcollapse.domain.base import make_domain
 from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
 from dpcollapse.rheology.base import Rheology
 from dpcollapse.rheology.drucker_prager import DruckerPrager
 from dpcollapse.rheology.mu_i import MuI
-from dpcollapse.scenes.registry import scene as make_scene
+from dpcollapse.scenes.registry import build_mesh, scene as make_scene
 from dpcollapse.models.registry import model_class
 from dpcollapse.models.stokes.augmented import augmented_settings  # noqa: F401  (callers import it here)
 from dpcollapse.models.stokes.regularized import picard_settings  # noqa: F401  (callers import it here)
@@ -71,6 +76,9 @@ def make_flow(tagged: TaggedMesh, cfg: Config, scene=None):
 class Discretization:
     """Everything that lives on one mesh: the flow, the mesh motion, outputs, integrals."""
 
+    #: measures beyond the shared ones (``loop``): none
+    extra_measures = ()
+
     def __init__(self, tagged: TaggedMesh, cfg: Config):
         self.tagged = tagged
         self.mesh = mesh = tagged.mesh
@@ -107,6 +115,24 @@ class Discretization:
 
     def area(self) -> float:
         return self.comm.allreduce(fem.assemble_scalar(self._area), op=MPI.SUM)
+
+    def max_step(self) -> float:
+        """The model's own step limit: none (the domain and the Courant bound limit it)."""
+        return math.inf
+
+    def courant_rate(self) -> float:
+        """max_K max_{vertices of K} |uⁿ|/h_K on the current mesh (global) [1/s]: uⁿ
+        interpolated to P1 (its vertex values), h_K the shortest edge of K."""
+        cached = getattr(self, "_courant_p1", None)
+        if cached is None:
+            V1 = self.flow.Vw
+            cached = self._courant_p1 = (fem.Function(V1), compat.cell_dofs(V1))
+        p1, dofs = cached
+        p1.interpolate(self.flow.u_old)
+        n = compat.num_owned_cells(self.mesh)
+        tri = self.mesh.geometry.x[:, :2][compat.geometry_dofmap(self.mesh)[:n]]
+        vel = p1.x.array.reshape(-1, 2)[dofs[:n]]
+        return self.comm.allreduce(courant_rate(tri, vel), op=MPI.MAX)
 
     def measures(self) -> dict:
         """Front position (furthest x of the mass: the toe, or the nose of an overturning
@@ -163,3 +189,42 @@ class Discretization:
         self.flow.destroy()
         if self.motion is not None:
             self.motion.destroy()
+
+
+class StokesFactory:
+    """The 2D model (``model.name = stokes``, ``numerics.method``) for the loop."""
+
+    model_name = "stokes"
+
+    def __init__(self, cfg: Config):
+        self.cfg = cfg
+
+    @classmethod
+    def from_config(cls, cfg: Config) -> StokesFactory:
+        return cls(cfg)
+
+    def domain(self):
+        """Moving with ``numerics.ale``, else fixed (``domain.make_domain``)."""
+        return make_domain(self.cfg)
+
+    def start(self, comm) -> Discretization:
+        """The scene's mesh with the initial velocity."""
+        disc = Discretization(build_mesh(self.cfg, comm), self.cfg)
+        disc.flow.set_velocity(initial_velocity(self.cfg))
+        return disc
+
+    def rebuild(self, tagged: TaggedMesh) -> Discretization:
+        """A discretization of a new mesh (remesh) or new facet tags (landing)."""
+        return Discretization(tagged, self.cfg)
+
+    def save_checkpoint(self, path, disc: Discretization, state: dict) -> None:
+        """The mesh, the model's snapshot and the loop state (collective; rank 0 writes)."""
+        fields = dict(disc.flow.snapshot())
+        u, p = fields.pop("velocity"), fields.pop("pressure")
+        save_checkpoint(path, disc.tagged, u, p, state, fields)
+
+    def load_checkpoint(self, path, comm) -> tuple[Discretization, dict]:
+        tagged, u, p, state, extra = load_checkpoint(path, comm)
+        disc = Discretization(tagged, self.cfg)
+        disc.flow.transfer({"velocity": u, "pressure": p, **extra})
+        return disc, state

@@ -1,5 +1,6 @@
-"""Pieces of the time loop that do not depend on the model: its typed state (what a
-checkpoint stores) and its events.
+"""Pieces of the time loop that do not depend on the model: what it asks of a model
+(``ModelFactory``, ``Discretization``), its typed state (what a checkpoint stores) and its
+events.
 
 Events (``Events.emit``) of a run, in the order they happen:
 
@@ -18,6 +19,59 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol
+
+class Discretization(Protocol):
+    """A model on its current mesh or grid, as the loop (``simulation``) uses it.
+
+    ``flow`` is the model (``models.base.Model``: solve_step → a report with converged,
+    iterations, residual, message and optionally ``dt``, the step actually taken when an
+    explicit stage bound cut it; accept_step, reset_iterate, snapshot/transfer,
+    copy_state_from, ``iteration_scale``, ``solver`` with its factorization and Krylov
+    counters). ``measures()`` returns at least front, max_height [m], kinetic_energy,
+    gravity_moment [J/m], area [m²], max_speed [m/s], min_angle [deg], min_detJ,
+    ill_posed_fraction (NaN where the model has none), the ``extra_measures`` (extra
+    diagnostics columns and run.json entries) and optionally ``at_rest`` (the state is an
+    exact rest state: the run stops once max |u| < time.rest_speed)."""
+
+    flow: object
+    mesh: object
+    tagged: object
+    extra_measures: tuple[str, ...]
+
+    def measures(self) -> dict: ...
+
+    def area(self) -> float: ...
+
+    def max_step(self) -> float:
+        """The model's own step limit [s] (inf: none)."""
+
+    def courant_rate(self) -> float:
+        """max |u|/cell size, or the scheme's wave-speed equivalent [1/s]."""
+
+    def output_functions(self) -> list:
+        """The fields to write (P1 or DG0 functions on ``mesh``)."""
+
+    def destroy(self) -> None: ...
+
+
+class ModelFactory(Protocol):
+    """The model of ``model.name`` (``models.registry.model_factory``): its domain
+    (``domain.base.Domain``), its initial discretization, a new one on a new mesh (remesh
+    or new facet tags), and its checkpoints (the loop state is a JSON-able dict)."""
+
+    model_name: str
+
+    def domain(self): ...
+
+    def start(self, comm) -> Discretization: ...
+
+    def rebuild(self, tagged) -> Discretization: ...
+
+    def save_checkpoint(self, path, disc: Discretization, state: dict) -> None: ...
+
+    def load_checkpoint(self, path, comm) -> tuple[Discretization, dict]: ...
+
 
 EVENTS = ("discretization", "step_accepted", "output", "remesh", "failure")
 

@@ -1,4 +1,5 @@
-"""``dpcollapse plot RUN_DIR``: free-surface profiles and the front position (PNG).
+"""``dpcollapse plot RUN_DIR``: free-surface profiles and the front position (PNG); for a
+depth-averaged run (a line mesh), the thickness h(x) and velocity ū(x) profiles.
 
 Reads only what a run writes for its users — ``solution.xdmf`` (and the HDF5 files it
 points to) and ``diagnostics.csv`` — so it plots any run, finished or not.
@@ -79,6 +80,23 @@ def free_surface(x: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return x[order]
 
 
+def _plot_profiles(run_dir: Path, series, picks, ax_h, ax_u, cmap) -> None:
+    """Depth-averaged runs: h(x) and ū(x) (cell data on the line mesh) at the picked times."""
+    fields = {name: dict(read_cell_field(run_dir, name)) for name in ("thickness", "velocity")}
+    for j, i in enumerate(picks):
+        t, x, cells = series[i]
+        centres = x[cells, 0].mean(axis=1)
+        order = np.argsort(centres)
+        colour = cmap(j / max(len(picks) - 1, 1))
+        for ax, name in ((ax_h, "thickness"), (ax_u, "velocity")):
+            values = fields[name].get(t)
+            if values is not None and len(values) == len(centres):
+                ax.step(centres[order], values[order], where="mid", color=colour, label=f"t = {t:.3f} s")
+    ax_u.set_xlabel("x [m]")
+    ax_u.set_ylabel("depth-averaged velocity ū [m/s]")
+    ax_u.grid(alpha=0.3)
+
+
 def plot_run(run_dir: Path, times: list[float] | None = None) -> Path:
     """Draw profiles at ``times`` (default: six output times) and front vs time."""
     import matplotlib
@@ -102,24 +120,31 @@ def plot_run(run_dir: Path, times: list[float] | None = None) -> Path:
     else:
         picks = sorted(set(np.linspace(0, len(series) - 1, min(6, len(series))).round().astype(int)))
 
+    profile = series[0][2].shape[1] == 2   # a line mesh: the depth-averaged model's grid
     rigid = read_cell_field(run_dir, "rigid")   # augmented Lagrangian runs only
-    if rigid:
+    if profile:
+        fig, (ax1, ax3, ax2) = plt.subplots(3, 1, figsize=(8, 10), gridspec_kw={"height_ratios": [3, 2, 2]})
+    elif rigid:
         fig, (ax1, ax3, ax2) = plt.subplots(3, 1, figsize=(8, 11), gridspec_kw={"height_ratios": [3, 2, 2]})
     else:
         fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 8), gridspec_kw={"height_ratios": [3, 2]})
     cmap = plt.get_cmap("viridis")
-    for j, i in enumerate(picks):
+    if profile:
+        _plot_profiles(run_dir, series, picks, ax1, ax3, cmap)
+    for j, i in enumerate(picks if not profile else ()):
         t, x, cells = series[i]
         surf = free_surface(x, cells)
         ax1.plot(surf[:, 0], surf[:, 1], color=cmap(j / max(len(picks) - 1, 1)), label=f"t = {t:.3f} s")
     ax1.axhline(0.0, color="k", lw=1)
     ax1.set_xlabel("x [m]")
-    ax1.set_ylabel("y [m]")
-    ax1.set_aspect("equal")
+    ax1.set_ylabel("y [m]" if not profile else "thickness h [m]")
+    if not profile:
+        ax1.set_aspect("equal")
     ax1.legend(fontsize=8)
-    ax1.set_title(f"Free surface — {run_dir.name}")
+    ax1.set_title(f"Free surface — {run_dir.name}" if not profile else
+                  f"Thickness profiles h(x), depth-averaged model — {run_dir.name}")
 
-    if rigid:  # exact rigid zone (γ̇ = 0) at the output time nearest to a third of the run
+    if rigid and not profile:  # exact rigid zone (γ̇ = 0) at the output time nearest to a third of the run
         k = int(np.argmin(np.abs(np.array([r[0] for r in rigid]) - available[-1] / 3)))
         t_r, values = rigid[k]
         i = int(np.argmin(np.abs(available - t_r)))

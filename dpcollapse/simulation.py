@@ -1,15 +1,20 @@
 """The time loop: domain step, model step, remesh, diagnostics, output, events.
 
-Each step n → n+1 (seed 000's update algorithm), on a fixed or moving domain
-(``domain``) with the model of ``numerics.method`` (``models``):
+The loop drives any model on any domain: ``models.registry.model_factory`` gives the model
+of ``model.name`` (``loop.ModelFactory``: the 2D flow of ``numerics.method`` with its mesh
+motion, or the depth-averaged Savage–Hutter model on a fixed 1D grid), which provides the
+domain, the discretization (``loop.Discretization``: model, measures, outputs, step
+limit) and the checkpoints. Each step n → n+1 (seed 000's update algorithm):
 1. if the domain asks for it (moving: smallest angle below ``numerics.remesh_min_angle``),
    remesh from the current boundary and carry the model's state across (snapshot/transfer);
 2. the domain limits Δt (moving: the mesh velocity wⁿ from uⁿ; no cell loses more than
    half its area and no free-surface node more than half its height above the bed); with
-   ``time.adaptive`` also Δt ≤ cfl·min_K h_K/max_K |uⁿ| (the Courant bound);
+   ``time.adaptive`` also Δt ≤ cfl·min_K h_K/max_K |uⁿ| (the Courant bound); the model's
+   own limit (an explicit scheme's CFL and positivity bound; none for the 2D flow);
 3. the domain moves by Δt·wⁿ, the model solves its step for (u^{n+1}, p^{n+1});
    if it fails, undo the move and halve Δt down to ``time.dt_min``;
-4. record diagnostics; write XDMF/checkpoint every N steps; stop at rest or end time.
+4. record diagnostics; write XDMF/checkpoint every N steps; stop at rest (max |u| below
+   ``time.rest_speed`` for ``time.rest_duration``, or a model's exact rest state) or end time.
 The state of the loop is a ``loop.LoopState``; subscribers of ``loop.Events`` see new
 discretizations, accepted steps, outputs, remeshes and failures.
 
@@ -29,24 +34,21 @@ import time
 from pathlib import Path
 
 import numpy as np
-from dolfinx import fem
 from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.ale.motion import quality, retag_landed
-from dpcollapse.ale.quality import courant_rate
 from dpcollapse.config import Config, config_to_dict, save_config
 from dpcollapse.domain import moving
-from dpcollapse.domain.base import make_domain
 from dpcollapse.errors import ConfigError, ConvergenceError, Interrupted, MeshError
 from dpcollapse.geometry.mesher import TaggedMesh
-from dpcollapse.scenes.registry import build_mesh
-from dpcollapse.io.checkpoint import load_checkpoint, previous_path
+from dpcollapse.io.checkpoint import previous_path
 from dpcollapse.io.diagnostics import DiagnosticsWriter
 from dpcollapse.io.runinfo import RunInfo
 from dpcollapse.io.exports import CheckpointExport, FieldExport
-from dpcollapse.loop import Events, LoopState
-from dpcollapse.discretization import (Discretization, flow_parameters, initial_velocity,  # noqa: F401
+from dpcollapse.loop import Discretization, Events, LoopState, ModelFactory
+from dpcollapse.models.registry import model_factory
+from dpcollapse.discretization import (flow_parameters, initial_velocity,  # noqa: F401
                                        picard_settings, rheology)
 
 log = logging.getLogger("dpcollapse")
@@ -130,8 +132,10 @@ class Simulation:
         self.cfg, self.comm, self.quiet = cfg, comm, quiet
         #: subscribers to the run's events (``loop.Events``), e.g. a benchmark's timers
         self.events = events or Events()
+        #: the model of ``model.name`` (``loop.ModelFactory``)
+        self.factory: ModelFactory = model_factory(cfg)
         #: fixed or moving (``domain``)
-        self.domain = make_domain(cfg)
+        self.domain = self.factory.domain()
         if cfg.output.format != "xdmf" and not compat.has_adios2():
             raise ConfigError(f"output.format = {cfg.output.format}: this DOLFINx "
                               f"({compat.DOLFINX_VERSION_TEXT}) has no ADIOS2 (Debian 12's 0.5.2 "
@@ -144,15 +148,13 @@ class Simulation:
         resume = resume and (self.checkpoint_path.exists()
                              or previous_path(self.checkpoint_path).exists())
         if resume:
-            tagged, u, p, state, extra = load_checkpoint(self.checkpoint_path, comm)
+            disc, state = self.factory.load_checkpoint(self.checkpoint_path, comm)
             self.state = LoopState.from_dict(state)
-            self._use(Discretization(tagged, cfg))
-            self.disc.flow.transfer({"velocity": u, "pressure": p, **extra})
+            self._use(disc)
             log.info("resuming from t = %.4f s (step %d)", self.state.t, self.state.step)
         else:
             self.state = LoopState(dt_target=cfg.time.dt)
-            self._use(Discretization(build_mesh(cfg, comm), cfg))
-            self.disc.flow.set_velocity(initial_velocity(cfg))
+            self._use(self.factory.start(comm))
             m0 = self.disc.measures()
             st = self.state
             st.area0, st.gravity_moment0, st.kinetic_energy0 = (
@@ -164,7 +166,8 @@ class Simulation:
         if resume:
             self.field_export.truncate_after(self.state.t)
         self.diagnostics = DiagnosticsWriter(self.run_dir / "diagnostics.csv", comm,
-                                             resume_after=self.state.t if resume else None)
+                                             resume_after=self.state.t if resume else None,
+                                             extra_columns=self.disc.extra_measures)
         self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg))
         self.timings = {"solve": 0.0, "mesh_motion": 0.0, "remesh": 0.0, "output": 0.0}
         self.iteration_counts: list[int] = []
@@ -202,7 +205,7 @@ class Simulation:
             return
         self.state.checkpoint_step = self.state.step
         t0 = time.perf_counter()
-        self.checkpoint_export.write(self.disc.tagged, self.disc.flow.snapshot(), self.state.to_dict())
+        self.checkpoint_export.write(self.factory, self.disc, self.state.to_dict())
         self.timings["output"] += time.perf_counter() - t0
 
     def _remesh(self, reason: str) -> None:
@@ -213,7 +216,7 @@ class Simulation:
         fields = old.flow.snapshot()
         tagged, nverts = self.domain.remesh(old.tagged, self.state.area0)
         self._retire(old)
-        self._use(Discretization(tagged, cfg))
+        self._use(self.factory.rebuild(tagged))
         outside = self.disc.flow.transfer(fields)
         area_after = self.disc.area()
         cells_after = self.comm.allreduce(compat.num_owned_cells(tagged.mesh), op=MPI.SUM)
@@ -267,23 +270,8 @@ class Simulation:
         state (uⁿ, iterate, mesh velocity) is copied as arrays. The old one is kept alive
         for the caller to restore or destroy."""
         old = self.disc
-        self._use(Discretization(tagged, self.cfg))
+        self._use(self.factory.rebuild(tagged))
         self.disc.flow.copy_state_from(old.flow)
-
-    def _courant_rate(self) -> float:
-        """max_K max_{vertices of K} |uⁿ|/h_K on the current mesh (global) [1/s]: uⁿ
-        interpolated to P1 (its vertex values), h_K the shortest edge of K."""
-        disc = self.disc
-        cached = getattr(disc, "_courant_p1", None)
-        if cached is None:
-            V1 = disc.flow.Vw
-            cached = disc._courant_p1 = (fem.Function(V1), compat.cell_dofs(V1))
-        p1, dofs = cached
-        p1.interpolate(disc.flow.u_old)
-        n = compat.num_owned_cells(disc.mesh)
-        tri = disc.mesh.geometry.x[:, :2][compat.geometry_dofmap(disc.mesh)[:n]]
-        vel = p1.x.array.reshape(-1, 2)[dofs[:n]]
-        return self.comm.allreduce(courant_rate(tri, vel), op=MPI.MAX)
 
     def _next_target(self, dt: float, iterations: int) -> float:
         """Adaptive target of the next step from this step's Δt and fixed-point iterations."""
@@ -304,7 +292,7 @@ class Simulation:
         if reason:
             self._remesh(reason)
         dt = min(st.dt_target, cfg.time.end_time - st.t)
-        rate = self._courant_rate()
+        rate = self.disc.courant_rate()
         if cfg.time.adaptive and rate > 0:
             dt = min(dt, max(cfg.time.cfl / rate, cfg.time.dt_min))
         domain = self.domain
@@ -320,6 +308,9 @@ class Simulation:
             raise MeshError(f"mesh degenerate at t = {st.t:.4f} s: the largest step that "
                             f"keeps every cell valid is {limit:.1e} s < time.dt_min, even after a remesh")
         dt = min(dt, limit)
+        model_limit = self.disc.max_step()   # an explicit scheme's CFL bound; inf: none
+        self.dt_limit = min(limit, model_limit)
+        dt = min(dt, model_limit)
         spent = 0  # iterations of failed attempts of this step (they cost as much)
         while True:
             token, landed = domain.move(self.disc, dt)
@@ -331,6 +322,7 @@ class Simulation:
             self.timings["solve"] += time.perf_counter() - t0
             spent += report.iterations
             if report.converged:
+                dt = getattr(report, "dt", None) or dt   # an explicit stage bound may cut it
                 if landed:
                     st.landings = (st.landings or 0) + landed
                     log.debug("t = %.4f s: %d nose node(s) landed on the bed", st.t + dt, landed)
@@ -357,7 +349,8 @@ class Simulation:
         if cfg.time.adaptive:
             st.dt_target = self._next_target(dt, report.iterations)
             return dt, spent, report.residual
-        st.dt_target = min(cfg.time.dt, 2.0 * dt) if dt < st.dt_target else st.dt_target
+        cut = dt < min(st.dt_target, model_limit)   # by a failure, the domain or end_time
+        st.dt_target = min(cfg.time.dt, 2.0 * dt) if cut else st.dt_target
         if st.dt_target < cfg.time.dt:
             st.dt_target = min(cfg.time.dt, 1.5 * st.dt_target)
         return dt, spent, report.residual
@@ -390,7 +383,8 @@ class Simulation:
                 progress.update(st.step, st.t, dt, iterations, m["front"])
                 resting = m["max_speed"] < cfg.time.rest_speed
                 st.rest_time = st.rest_time + dt if resting else 0.0
-                at_rest = resting and st.rest_time >= cfg.time.rest_duration
+                at_rest = resting and (st.rest_time >= cfg.time.rest_duration
+                                       or m.get("at_rest", False))
                 if self.field_export.due(st.step) or at_rest or stop:
                     self._output()
                 if self.checkpoint_export.due(st.step) or at_rest or stop:
@@ -438,8 +432,8 @@ class Simulation:
             "status": status, "t": self.state.t, "steps": self.state.step,
             "remeshes": self.state.remeshes, "front": m["front"], "max_height": m["max_height"],
             "area": m["area"], "area_drift": (m["area"] - self.state.area0) / self.state.area0,
-            "kinetic_energy": m["kinetic_energy"], "min_angle": m["min_angle"],
-            "min_detJ": m["min_detJ"],
+            "kinetic_energy": m["kinetic_energy"], "min_angle": _finite(m["min_angle"]),
+            "min_detJ": _finite(m["min_detJ"]),
             "mean_iterations": float(np.mean(its)) if its else 0.0,
             "max_iterations": int(np.max(its)) if its else 0,
             "flow_solves": int(np.sum(its)) if its else 0,
@@ -447,12 +441,19 @@ class Simulation:
             "mesh_velocity_factorizations": self.ale_solves,
             "krylov_iterations": self.krylov_iterations + self.disc.flow.solver.krylov_iterations,
         }
+        summary.update({k: m[k] for k in self.disc.extra_measures})
+        summary["model"] = self.cfg.model.name
         if error:
             summary["error"] = error
         self.timings["total"] = time.perf_counter() - self.wall0
         self.info.update(status=status, summary=summary, timings=self.timings)
         self.info.write()
         return summary
+
+
+def _finite(value: float) -> float | None:
+    """None for a measure the model does not have (NaN), for run.json."""
+    return value if value == value else None
 
 
 def run_simulation(cfg: Config, run_dir: Path, quiet: bool = False, resume: bool = False) -> dict:

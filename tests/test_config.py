@@ -48,10 +48,10 @@ def test_defaults_load():
 
 
 def test_defaults_live_in_the_fields_with_units():
-    from dpcollapse.config import GEOMETRIES
+    from dpcollapse.config import GEOMETRIES, MODELS
 
-    sections = [f.annotation for k, f in Config.model_fields.items() if k != "geometry"]
-    for section in sections + list(GEOMETRIES.values()):
+    sections = [f.annotation for k, f in Config.model_fields.items() if k not in ("geometry", "model")]
+    for section in sections + list(GEOMETRIES.values()) + list(MODELS.values()):
         for name, field in section.model_fields.items():
             assert field.description, name
 

@@ -58,6 +58,12 @@ def save_checkpoint(path: Path, tagged: TaggedMesh, u: CellwiseField, p: Cellwis
     arrays["extra_fields"] = np.array(list(extra), dtype=str)
     for name, field in extra.items():
         arrays.update({f"x_{name}_{k}": v for k, v in field.to_arrays().items()})
+    write_npz_atomic(path, arrays)
+
+
+def write_npz_atomic(path: Path, arrays: dict) -> None:
+    """Write ``arrays`` to ``path`` (.npz) through a temporary file and a rename, keeping
+    the previous file as its ``previous_path`` (rank 0 only)."""
     path = Path(path)
     tmp = path.with_name(path.stem + ".tmp.npz")
     try:
@@ -86,11 +92,11 @@ def previous_path(path: Path) -> Path:
 _REQUIRED = ("mesh_x", "mesh_cells", "mesh_edges", "mesh_edge_tags", "state")
 
 
-def _readable(path: Path) -> str | None:
+def _readable(path: Path, required: tuple[str, ...] = _REQUIRED) -> str | None:
     """None if ``path`` is a complete checkpoint, else what is wrong with it."""
     try:
         with np.load(path) as data:
-            missing = [k for k in _REQUIRED if k not in data.files]
+            missing = [k for k in required if k not in data.files]
             if missing:
                 return f"no {', '.join(missing)}"
             for k in data.files:          # reads (and CRC-checks) every array
@@ -103,16 +109,17 @@ def _readable(path: Path) -> str | None:
     return None
 
 
-def choose_checkpoint(path: Path, comm) -> Path:
-    """The checkpoint to resume from: ``path`` if it is whole, else the previous one
-    (collective: rank 0 checks and decides). ConfigError if neither is usable."""
+def choose_checkpoint(path: Path, comm, required: tuple[str, ...] = _REQUIRED) -> Path:
+    """The checkpoint to resume from: ``path`` if it is whole (holds the arrays
+    ``required``), else the previous one (collective: rank 0 checks and decides).
+    ConfigError if neither is usable."""
     from dpcollapse.errors import ConfigError
 
     path = Path(path)
     choice, problems = None, []
     if comm.rank == 0:
         for candidate in (path, previous_path(path)):
-            problem = _readable(candidate)
+            problem = _readable(candidate, required)
             if problem is None:
                 choice = str(candidate)
                 break

@@ -15,9 +15,12 @@ COLUMNS = [
 class DiagnosticsWriter:
     """Appends rows to ``diagnostics.csv`` on rank 0; other ranks do nothing."""
 
-    def __init__(self, path: Path, comm, resume_after: float | None = None):
+    def __init__(self, path: Path, comm, resume_after: float | None = None,
+                 extra_columns: tuple[str, ...] = ()):
         self.path = Path(path)
         self.rank = comm.rank
+        #: COLUMNS, then the model's own measures (the depth-averaged model: wet_front, outflow)
+        self.columns = COLUMNS + [c for c in extra_columns if c not in COLUMNS]
         if self.rank != 0:
             return
         rows = []
@@ -26,17 +29,17 @@ class DiagnosticsWriter:
         # the kept rows go to a new file that replaces the old one whole
         tmp = self.path.with_name(self.path.name + ".tmp")
         with tmp.open("w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=COLUMNS, extrasaction="ignore")
+            writer = csv.DictWriter(f, fieldnames=self.columns, extrasaction="ignore")
             writer.writeheader()
             writer.writerows(rows)
         os.replace(tmp, self.path)
         self._file = self.path.open("a", newline="")
-        self._writer = csv.DictWriter(self._file, fieldnames=COLUMNS)
+        self._writer = csv.DictWriter(self._file, fieldnames=self.columns)
 
     def write(self, row: dict) -> None:
         if self.rank != 0:
             return
-        self._writer.writerow({k: row[k] for k in COLUMNS})
+        self._writer.writerow({k: row[k] for k in self.columns})
         self._file.flush()
 
     def close(self) -> None:
@@ -70,4 +73,4 @@ def read_diagnostics(path: Path) -> dict[str, list[float]]:
     """Columns of a diagnostics file as lists of floats."""
     with Path(path).open() as f:
         rows = list(csv.DictReader(f))
-    return {k: [float(r[k]) for r in rows] for k in COLUMNS if rows and k in rows[0]}
+    return {k: [float(r[k]) for r in rows] for k in (rows[0] if rows else ())}

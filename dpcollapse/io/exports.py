@@ -2,8 +2,8 @@
 
 - ``FieldExport``: the output fields of the current mesh at time t, into the XDMF series
   and/or the ADIOS2 VTX series of ``output.format`` (each time once);
-- ``CheckpointExport``: the mesh, the model's snapshot fields and the loop state into
-  ``checkpoint.npz`` (each step once).
+- ``CheckpointExport``: the model's state (2D: the mesh and the snapshot fields) and the
+  loop state into ``checkpoint.npz`` (each step once), in its model's format.
 
 The loop writes both every ``every`` steps and at the end of a run (at rest, stopped,
 end time), in that order. ``diagnostics.csv`` (every step) is ``io.diagnostics``.
@@ -13,7 +13,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from dpcollapse.io.checkpoint import save_checkpoint
 from dpcollapse.io.vtx import VTXTimeSeries
 from dpcollapse.io.xdmf import XDMFTimeSeries
 
@@ -59,9 +58,8 @@ class CheckpointExport:
     def due(self, step: int) -> bool:
         return step % self.every == 0
 
-    def write(self, tagged, fields: dict, state: dict) -> None:
-        """``fields``: the model's snapshot ("velocity", "pressure", then any multipliers);
-        ``state``: the loop state as a JSON-able dict."""
-        fields = dict(fields)
-        u, p = fields.pop("velocity"), fields.pop("pressure")
-        save_checkpoint(self.path, tagged, u, p, state, fields)
+    def write(self, factory, disc, state: dict) -> None:
+        """The model's state on ``disc`` in the format of its ``factory``
+        (``loop.ModelFactory.save_checkpoint``); ``state``: the loop state as a JSON-able
+        dict."""
+        factory.save_checkpoint(self.path, disc, state)

@@ -1,6 +1,11 @@
-"""The model of a config: the class in a module under ``dpcollapse/models/`` whose
-``method`` is ``numerics.method`` (a new model is a new package here, found without
-editing this file). A model class provides ``from_config(tagged, cfg, params)``."""
+"""The model of a config, found without editing this file:
+
+- ``model_factory(cfg)``: what the time loop drives (``loop.ModelFactory``) — the class
+  whose ``model_name`` is ``model.name``, in a module under ``dpcollapse/models/`` (a new
+  model is a new package here) or in ``dpcollapse.discretization`` (the 2D model's, which
+  uses the mesh motion of ``ale/`` above this package); it provides ``from_config(cfg)``;
+- ``model_class(method)``: the 2D flow class whose ``method`` is ``numerics.method``; it
+  provides ``from_config(tagged, cfg, params)``."""
 
 from __future__ import annotations
 
@@ -27,6 +32,31 @@ def model_classes() -> dict[str, type]:
                     and obj.__module__ == module.__name__):
                 found[method] = obj
     return found
+
+
+#: Modules outside the package that hold a model factory (imported when asked for).
+FACTORY_MODULES = ("dpcollapse.discretization",)
+
+
+@functools.cache
+def model_factories() -> dict[str, type]:
+    """model.name -> factory class (``model_name`` and ``from_config``)."""
+    found = {}
+    names = [info.name for info in pkgutil.walk_packages(_package.__path__, prefix=f"{_package.__name__}.")
+             if not info.ispkg and info.name.rsplit(".", 1)[-1] not in _SKIP]
+    for name in [*names, *FACTORY_MODULES]:
+        module = importlib.import_module(name)
+        for obj in vars(module).values():
+            key = getattr(obj, "model_name", None)
+            if (isinstance(obj, type) and isinstance(key, str) and hasattr(obj, "from_config")
+                    and obj.__module__ == module.__name__):
+                found[key] = obj
+    return found
+
+
+def model_factory(cfg):
+    """The factory of ``model.name`` built from the config."""
+    return model_factories()[cfg.model.name].from_config(cfg)
 
 
 def model_class(method: str) -> type:
