@@ -17,7 +17,7 @@ def test_ladder_quick(tmp_path):
         rows = list(reader)
     assert [r["case"] for r in rows] == ["column_a2_quick"]
     r = {k: (float(v) if k not in ("case", "group", "config", "overrides", "status_2d",
-                                     "status_sh", "within_5pct") else v) for k, v in rows[0].items()}
+                                     "status_sh", "within_5pct", "sh_friction") else v) for k, v in rows[0].items()}
     assert r["status_2d"] == "end_time" and r["status_sh"] == "end_time"
     assert math.isclose(r["t_end_2d"], 0.1) and math.isclose(r["t_end_sh"], 0.1)
     # mass: the 2D domain keeps its area (ALE, measured −7e-4 at 3 cm), SH to round-off

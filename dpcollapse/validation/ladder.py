@@ -47,11 +47,11 @@ from pathlib import Path
 
 import numpy as np
 
-from dpcollapse.config import Config, load_config
-from dpcollapse.models.savage_hutter import CoulombFriction, Grid, SavageHutter, SideWallFriction, simulate
+from dpcollapse.config import Config, load_config, with_overrides
+from dpcollapse.models.savage_hutter import Grid, SavageHutter, simulate
 from dpcollapse.models.savage_hutter.exact import mangeney_dam_break
-from dpcollapse.models.savage_hutter.initial import (column_vertices, polygon_area, polygon_cell_averages,
-                                                     trapezoid_vertices)
+from dpcollapse.models.savage_hutter.initial import polygon_area, polygon_cell_averages
+from dpcollapse.models.savage_hutter.setup import setup_from_config
 from dpcollapse.models.savage_hutter.solver import front_position
 
 #: Repository root (the configs are named relative to it).
@@ -69,7 +69,7 @@ WITHIN = 0.05
 QUIET_OUTPUT = ("time.output_every=1000000", "time.checkpoint_every=1000000")
 
 COLUMNS = [
-    "case", "group", "param", "config", "overrides", "mesh_size_2d", "sh_dx", "sh_order",
+    "case", "group", "param", "config", "overrides", "mesh_size_2d", "sh_dx", "sh_order", "sh_friction",
     "status_2d", "t_end_2d", "steps_2d", "remeshes_2d", "wall_2d_s", "cpu_2d_s", "front_2d_mesh", "front_2d",
     "runout_2d", "height_2d", "area_drift_2d",
     "status_sh", "t_end_sh", "steps_sh", "wall_sh_s", "cpu_sh_s", "front_sh", "runout_sh", "height_sh",
@@ -129,31 +129,25 @@ def quick_plan() -> list[Case]:
 
 
 # ----------------------------------------------------------------------------- config → SH
-# TO BE REPLACED by the config → Savage–Hutter mapping of the `loop` branch (issue 15's
-# adapter, dpcollapse/models/savage_hutter/setup.py) when it lands: one mapping, not two.
-def sh_problem(cfg: Config, dx: float, x_max: float | None = None, order: int = 2):
-    """(SavageHutter, Grid, initial polygon) of a trapezoid or column config: Coulomb basal
-    friction μ_b = tan(boundary.bed_friction_angle), slope θ = geometry.bed_angle, side walls
-    μ_w h/w when boundary.channel_width is set, a wall at x = 0 (the trapezoid's wall or the
-    column's symmetry plane; the 2D wall friction has no 1D counterpart), open at x_max."""
-    geo, bnd = cfg.geometry, cfg.boundary
-    if geo.shape == "trapezoid":
-        poly = trapezoid_vertices(geo.height, geo.base_length, geo.flank_angle)
-    elif geo.shape == "column":
-        poly = column_vertices(geo.height, geo.base_length)
-    else:
-        raise ValueError(f"geometry.shape = {geo.shape}: the depth-averaged model has no {geo.shape}")
-    if bnd.bed_condition != "coulomb":
-        raise ValueError("boundary.bed_condition = no_slip: the depth-averaged model needs a basal "
-                         "friction law (coulomb)")
-    side = SideWallFriction(bnd.mu_side, bnd.channel_width) if bnd.channel_width else None
-    model = SavageHutter(basal=CoulombFriction(bnd.mu_bed), slope_deg=geo.bed_angle, side_wall=side,
-                         g=cfg.material.gravity, left="wall", right="open", order=order,
-                         front_threshold=FRONT_THRESHOLD)
+def sh_config(cfg: Config, dx: float, x_max: float | None = None, order: int = 2) -> Config:
+    """The same config with ``model.name = savage_hutter``: order 2, cells of ``dx`` on
+    [0, x_max] (default L0 + 6 H0 + 0.2 m, rounded up to whole cells), a wall at x = 0 (the
+    trapezoid's wall or the column's symmetry plane; the 2D wall friction has no 1D
+    counterpart), open downslope, the 1 mm front. What the scene, bed and material mean for
+    the 1D model is ``models.savage_hutter.setup`` (the one mapping)."""
+    geo = cfg.geometry
     x_max = x_max if x_max is not None else geo.base_length + 6.0 * geo.height + 0.2
     n = max(2, math.ceil(x_max / dx - 1e-9))
-    grid = Grid(0.0, n * dx, n)
-    return model, grid, poly
+    return with_overrides(cfg, ["model.name=savage_hutter", f"model.order={order}",
+                                f"model.n_cells={n}", "model.x_min=0", f"model.x_max={n * dx!r}",
+                                "model.left=wall", "model.right=open", "model.shape_factor=1",
+                                f"model.front_threshold={FRONT_THRESHOLD!r}"])
+
+
+def sh_problem(cfg: Config, dx: float, x_max: float | None = None, order: int = 2):
+    """(SavageHutter, Grid, initial polygon, μ_b source) of a trapezoid or column config."""
+    setup = setup_from_config(sh_config(cfg, dx, x_max, order))
+    return setup.model, setup.grid, setup.vertices, setup.friction
 
 
 # ----------------------------------------------------------------------------- runs
@@ -221,7 +215,7 @@ def _rel(a: float, b: float) -> float:
 def compare(case: Case, work: Path, dx: float) -> tuple[dict, list[tuple]]:
     """Run both rungs of one case; (CSV row, series rows)."""
     cfg = case.load()
-    model, grid, poly = sh_problem(cfg, dx, case.sh_x_max)
+    model, grid, poly, friction = sh_problem(cfg, dx, case.sh_x_max)
     two = run_2d(cfg, work / case.name, grid)
     sh_end = two.t_end if two.status == "end_time" else SH_MAX_TIME
     sh = run_sh(model, grid, poly, sh_end)
@@ -236,7 +230,7 @@ def compare(case: Case, work: Path, dx: float) -> tuple[dict, list[tuple]]:
     row = {
         "case": case.name, "group": case.group, "param": case.param, "config": case.config,
         "overrides": " ".join(case.overrides), "mesh_size_2d": cfg.geometry.mesh_size,
-        "sh_dx": grid.dx, "sh_order": model.order,
+        "sh_dx": grid.dx, "sh_order": model.order, "sh_friction": f"{friction} {model.basal}",
         "status_2d": two.status, "t_end_2d": two.t_end, "steps_2d": two.steps,
         "remeshes_2d": two.extra["remeshes"], "wall_2d_s": two.wall, "cpu_2d_s": two.cpu,
         "front_2d_mesh": two.extra["front_mesh"], "front_2d": front_2d, "runout_2d": runout_2d,
@@ -479,7 +473,7 @@ def sh_resolution(case: Case, end_time: float | None = None) -> list[dict]:
     cfg = case.load()
     out = []
     for dx in SH_RESOLUTION_DX:
-        model, grid, poly = sh_problem(cfg, dx, case.sh_x_max)
+        model, grid, poly, _ = sh_problem(cfg, dx, case.sh_x_max)
         sh = run_sh(model, grid, poly, end_time or SH_MAX_TIME)
         front = front_position(sh.h, grid, FRONT_THRESHOLD)
         out.append({"dx": dx, "status": sh.status, "t_end": sh.t_end, "steps": sh.steps,
