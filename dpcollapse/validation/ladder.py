@@ -363,6 +363,7 @@ def plot(rows: list[dict], series: dict, path: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     by = {r["case"]: r for r in rows}
     fig, axes = plt.subplots(2, 3, figsize=(15, 8.5))
@@ -420,25 +421,32 @@ def plot(rows: list[dict], series: dict, path: Path) -> None:
         ax.set_yscale("log")
         ax.set_xticks(a)
         ax.set_xticklabels([f"{v:g}" for v in a])
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     ax.set_xlabel("aspect ratio a = H0/L0")
     ax.set_title("column collapse, Coulomb bed μ = tan 25.5°", fontsize=9)
     ax.legend(fontsize=7)
 
     ax = axes[1, 1]
-    for group, marker, xlabel in (("column", "o", "a"), ("slope", "s", "θ")):
-        rs = sorted((r for r in rows if r["group"] in (group, "rigid" if group == "slope" else "")),
-                    key=lambda r: r["param"])
-        if rs:
-            label = "columns (x: a)" if group == "column" else "rigid trapezoid (x: θ/10°)"
-            xs = [r["param"] if group == "column" else max(r["param"], 1e-9) / 10 for r in rs]
-            ax.plot(xs, [100 * r["runout_diff"] for r in rs], marker + "-", label=f"runout, {label}")
-            ax.plot(xs, [100 * r["height_diff"] for r in rs], marker + ":", label=f"H_f, {label}")
+    col = sorted((r for r in rows if r["group"] == "column"), key=lambda r: r["param"])
+    ax.plot([r["param"] for r in col], [100 * r["runout_diff"] for r in col], "o-", color=colors[0],
+            label="runout ΔL, column (bottom axis: a)")
+    ax.plot([r["param"] for r in col], [100 * r["height_diff"] for r in col], "s-", color=colors[1],
+            label="H_f, column (bottom axis: a)")
+    ax.set_xlabel("column aspect ratio a = H0/L0")
+    top = ax.twiny()
+    slope = sorted((r for r in rows if r["group"] in ("rigid", "slope")), key=lambda r: r["param"])
+    top.plot([r["param"] for r in slope], [100 * r["runout_diff"] for r in slope], "o--",
+             color=colors[2], label="runout ΔL, trapezoid (top axis: θ)")
+    top.plot([r["param"] for r in slope], [100 * r["height_diff"] for r in slope], "s--",
+             color=colors[3], label="H_f, trapezoid (top axis: θ)")
+    top.set_xlabel("bed angle θ of the rigid-bed trapezoid [deg]", fontsize=8)
     ax.axhspan(-100 * WITHIN, 100 * WITHIN, color="0.85", zorder=0)
     ax.axhline(0, color="k", lw=0.5)
     ax.set_ylabel("(SH − 2D)/2D [%]")
-    ax.set_xlabel("a (columns), θ/10° (trapezoid)")
-    ax.set_title("depth-averaged against 2D (grey: within 5 %)", fontsize=9)
-    ax.legend(fontsize=7)
+    ax.set_title("depth-averaged against 2D (grey band: within 5 %)", fontsize=9, pad=22)
+    lines = ax.get_legend_handles_labels()
+    more = top.get_legend_handles_labels()
+    ax.legend(lines[0] + more[0], lines[1] + more[1], fontsize=7)
 
     ax = axes[1, 2]
     names = [r["case"] for r in rows]
