@@ -323,7 +323,25 @@ def write_results(out: Path, rows: list[dict], series: list[tuple]) -> None:
     with (out / "ladder_series.csv").open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(SERIES_COLUMNS)
-        w.writerows((c, rung, kind, f"{x:.6g}", f"{y:.6g}") for c, rung, kind, x, y in series)
+        w.writerows((c, rung, kind, f"{x:.6g}", f"{y:.6g}") for c, rung, kind, x, y in _trim(series))
+
+
+def _trim(series: list[tuple]) -> list[tuple]:
+    """The series as stored (for the chart): each front history thinned to about 200 points,
+    each profile to about 300, cut one cell after its last h > 1 µm (beyond: dry bed, or the
+    precursor film of the SH model)."""
+    groups: dict = {}
+    for row in series:
+        groups.setdefault(row[:3], []).append(row)
+    out = []
+    for (_, _, kind), rows in groups.items():
+        if kind == "front":
+            out += [rows[i] for i in _thin(np.arange(len(rows)), 200)]
+        else:
+            wet = [i for i, r in enumerate(rows) if r[4] > 1e-6]
+            rows = rows[:(wet[-1] + 2) if wet else 1]
+            out += [rows[i] for i in _thin(np.arange(len(rows)), 300)]
+    return out
 
 
 def _fmt(v):
