@@ -246,6 +246,10 @@ def run(config: Path, overrides: tuple[str, ...], out: str | None, quiet: bool,
 def mesh(config: Path, overrides: tuple[str, ...], out: Path | None) -> int:
     """Write the initial mesh of CONFIG as a gmsh .msh file."""
     cfg = load_config(config, overrides)
+    if cfg.model.name != "stokes":
+        raise ConfigError(f"model.name = {cfg.model.name}: the depth-averaged model has no 2D mesh "
+                          f"(its grid is model.n_cells = {cfg.model.n_cells} cells); "
+                          "dpcollapse mesh needs model.name = stokes")
     write_msh = _lazy("dpcollapse.scenes.registry", "write_msh")
     write_msh(cfg, Path(out or Path("meshes") / f"{config.stem}.msh"))
     return 0

@@ -46,9 +46,9 @@ from dpcollapse.io.checkpoint import previous_path
 from dpcollapse.io.diagnostics import DiagnosticsWriter
 from dpcollapse.io.runinfo import RunInfo
 from dpcollapse.io.exports import CheckpointExport, FieldExport
-from dpcollapse.loop import Discretization, Events, LoopState, ModelFactory
+from dpcollapse.loop import Discretization as ModelDiscretization, Events, LoopState, ModelFactory
 from dpcollapse.models.registry import model_factory
-from dpcollapse.discretization import (flow_parameters, initial_velocity,  # noqa: F401
+from dpcollapse.discretization import (Discretization, flow_parameters, initial_velocity,  # noqa: F401
                                        picard_settings, rheology)
 
 log = logging.getLogger("dpcollapse")
@@ -186,7 +186,7 @@ class Simulation:
         return self.domain.solves
 
     # ------------------------------------------------------------------ pieces
-    def _use(self, disc: Discretization) -> None:
+    def _use(self, disc: ModelDiscretization) -> None:
         """Make ``disc`` the current discretization (event ``discretization``)."""
         self.disc = disc
         self.events.emit("discretization", self, disc)
@@ -258,7 +258,7 @@ class Simulation:
                 f"{m['min_angle']:.2f}°: the mass is likely thinner than geometry.mesh_size = "
                 f"{self.cfg.geometry.mesh_size:g} m somewhere — use a finer mesh or a shorter time.end_time")
 
-    def _retire(self, disc: Discretization) -> None:
+    def _retire(self, disc: ModelDiscretization) -> None:
         """Destroy a discretization, keeping the counts of LU factorizations and Krylov
         iterations it did."""
         self.factorizations += disc.flow.solver.factorizations

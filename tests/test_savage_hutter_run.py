@@ -23,7 +23,7 @@ from dpcollapse.plot import read_cell_field, read_series
 from tests.helpers import ROOT, paraview_summaries, pvpython, run_cli, simulation
 
 COLUMN = ROOT / "configs" / "column_sh.yaml"
-SLOPE = ROOT / "configs" / "slope22_sh.yaml"
+SLOPE = ROOT / "configs" / "dambreak_slope_sh.yaml"
 #: a small, fast version of the column (200 cells, order 1)
 SMALL = ["model.n_cells=200", "model.order=1", "time.output_every=10", "time.checkpoint_every=10"]
 
@@ -79,7 +79,7 @@ def test_paraview_opens_the_profiles(tmp_path):
 
 
 def test_mangeney_dam_break_through_the_loop(tmp_path):
-    """configs/slope22_sh.yaml at 600 cells, order 2: the profile at t = 5 s against the
+    """configs/dambreak_slope_sh.yaml at 600 cells, order 2: the profile at t = 5 s against the
     exact solution from 12 m behind the dam (beyond the wall's rarefaction) to the tip."""
     sim = simulation(SLOPE, ["model.n_cells=600", "time.output_every=1000"], tmp_path,
                      comm=MPI.COMM_SELF)
@@ -204,3 +204,8 @@ def test_a_failure_stops_every_rank_alike(shared_tmp, comm, monkeypatch):
         simulation(COLUMN, SMALL, shared_tmp / "fail", comm=comm).run()
     messages = comm.allgather(str(failure.value))
     assert len(set(messages)) == 1 and failure.value.exit_code == 3
+
+
+def test_mesh_command_refuses_the_1d_model(capsys):
+    assert main(["mesh", str(COLUMN)]) == 2
+    assert "model.name = savage_hutter" in capsys.readouterr().err
