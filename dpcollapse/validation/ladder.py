@@ -1,0 +1,573 @@
+"""The model ladder, measured (issue 15): the 2D solver and the depth-averaged model on one scene.
+
+    python -m dpcollapse.validation.ladder [--quick] [--out docs] [--work runs/ladder]
+                                           [--only CASE ...] [--redo] [--plot-only]
+
+For each case (a config of ``configs/`` plus ``--set`` overrides) both rungs run on the same
+problem, one after the other in this process:
+
+* 2D: ``Simulation`` (what ``dpcollapse run`` runs) to rest or to ``time.end_time``, run
+  directory ``WORK/CASE``; its front history is the mesh's largest x (diagnostics.csv);
+* Savage–Hutter (``models.savage_hutter``), order 2, Δx = ``SH_DX`` (1 mm; 4 mm with --quick),
+  from the exact cell averages of the 2D scene's initial polygon; to the 2D run's end time when
+  the 2D run ended there, else to its own rest (at most ``SH_MAX_TIME``); its front history is
+  the 1 mm front.
+
+Compared, on the Savage–Hutter grid:
+
+* the deposit thickness h(x) of each rung: for the 2D run, the exact cell averages of the final
+  domain's boundary polygon (``initial.polygon_cell_averages``: the length of the cut normal to
+  the bed at x — the thickness from the free surface, normal to the bed);
+* front x_f = the largest x where h = 1 mm (``solver.front_position``, the same function and
+  threshold for both rungs), runout ΔL = x_f − L0 (L0 = ``geometry.base_length``), deposit height
+  H_f = max h; relative differences (SH − 2D)/2D; "within 5 %" when both |ΔL| and |H_f|
+  differences are ≤ 5 %;
+* the L1 difference of the profiles Σ|h_SH − h_2D| Δx [m²] and the same over the area;
+* the cost ratio: 2D time (mesh, forms and loop) / Savage–Hutter time (``simulate``), in the
+  same process, one run at a time: process (CPU) time — what a shared machine does not inflate —
+  and wall time (``time.perf_counter``);
+* the dam break on a slope also against the exact solution of Mangeney et al. (2000), on the part
+  of the domain the left wall has not reached (x ≥ m t²/2 + c0 t, valid while t < L0/(2 c0)).
+
+Results go to ``OUT/ladder.csv`` (one row per case) and ``OUT/ladder_series.csv`` (front
+histories and final profiles); a case already in the CSV with the same config is not run again
+(``--redo`` runs it again; ``--plot-only`` only redraws ``OUT/ladder.png`` from the CSVs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from dpcollapse.config import Config, load_config, with_overrides
+from dpcollapse.models.savage_hutter import Grid, SavageHutter, simulate
+from dpcollapse.models.savage_hutter.exact import mangeney_dam_break
+from dpcollapse.models.savage_hutter.initial import polygon_area, polygon_cell_averages
+from dpcollapse.models.savage_hutter.setup import setup_from_config
+from dpcollapse.models.savage_hutter.solver import front_position
+
+#: Repository root (the configs are named relative to it).
+ROOT = Path(__file__).resolve().parents[2]
+#: Thickness that defines the front of both rungs [m].
+FRONT_THRESHOLD = 1e-3
+#: Savage–Hutter cell size [m] (full run, --quick).
+SH_DX = 1e-3
+SH_DX_QUICK = 4e-3
+#: Savage–Hutter: longest run to rest [s].
+SH_MAX_TIME = 5.0
+#: Tolerance of "within" [-].
+WITHIN = 0.05
+#: The 2D runs write no fields and no checkpoints (only diagnostics.csv and run.json).
+QUIET_OUTPUT = ("time.output_every=1000000", "time.checkpoint_every=1000000")
+
+COLUMNS = [
+    "case", "group", "param", "config", "overrides", "mesh_size_2d", "sh_dx", "sh_order", "sh_friction",
+    "status_2d", "t_end_2d", "steps_2d", "remeshes_2d", "wall_2d_s", "cpu_2d_s", "front_2d_mesh", "front_2d",
+    "runout_2d", "height_2d", "area_drift_2d",
+    "status_sh", "t_end_sh", "steps_sh", "wall_sh_s", "cpu_sh_s", "front_sh", "runout_sh", "height_sh",
+    "mass_error_sh",
+    "runout_diff", "height_diff", "l1_diff_m2", "l1_rel", "cost_ratio", "cost_ratio_cpu", "within_5pct",
+    "l1_sh_exact_m2", "l1_2d_exact_m2", "front_exact",
+]
+
+
+@dataclass(frozen=True)
+class Case:
+    """One scene both rungs run: a config of ``configs/`` and its ``--set`` overrides."""
+
+    name: str
+    group: str                       # rigid | column | slope | dam_break | resolution
+    param: float                     # the swept value (aspect ratio a, bed angle θ [deg], ...)
+    config: str                      # relative to the repository root
+    overrides: tuple[str, ...] = ()
+    sh_x_max: float | None = None    # end of the Savage–Hutter domain [m] (None: L0 + 6 H0 + 0.2)
+
+    def load(self) -> Config:
+        return load_config(ROOT / self.config, list(QUIET_OUTPUT) + list(self.overrides))
+
+
+L0_COLUMN = 0.07
+ASPECT_RATIOS = (0.5, 1.0, 2.0, 3.0, 4.0, 6.0)
+RIGID_SLOPES = (10.0, 20.0)
+#: At 20° the mass still moves at the 2 s cap, 2.9 m from the wall (measured): a longer SH domain.
+RIGID_SLOPE_X_MAX = {20.0: 5.0}
+#: Dam break on a slope: a 1 m long, 10 cm deep reservoir released at once on a 22° bed with a
+#: 21° bed friction (the angles of Mangeney et al. 2000); the material keeps configs/rigid.yaml's
+#: internal friction angle 25.5° (> θ: the reservoir slides as a block, as the depth-averaged
+#: model assumes) and its left-wall friction. 0.5 s < L0/(2 c0) = 0.52 s.
+DAM_BREAK = ("geometry.flank_angle=90", "geometry.height=0.1", "geometry.base_length=1.0",
+             "geometry.bed_angle=22", "boundary.bed_friction_angle=21", "time.end_time=0.5")
+
+
+def full_plan() -> list[Case]:
+    cases = [Case("rigid", "rigid", 0.0, "configs/rigid.yaml")]
+    cases += [Case(f"rigid_slope{theta:g}", "slope", theta, "configs/rigid.yaml",
+                   (f"geometry.bed_angle={theta:g}",), sh_x_max=RIGID_SLOPE_X_MAX.get(theta))
+              for theta in RIGID_SLOPES]
+    for a in ASPECT_RATIOS:
+        height = round(a * L0_COLUMN, 6)
+        over = () if a == 2.0 else (f"geometry.height={height:g}",)
+        cases.append(Case(f"column_a{a:g}", "column", a, "configs/column.yaml", over))
+    cases.append(Case("dam_break_slope22", "dam_break", 22.0, "configs/rigid.yaml",
+                      DAM_BREAK + ("geometry.mesh_size=0.02",), sh_x_max=2.5))
+    cases.append(Case("column_a2_mesh5mm", "resolution", 2.0, "configs/column.yaml",
+                      ("geometry.mesh_size=0.005",)))
+    cases.append(Case("column_a2_mesh2cm", "resolution", 2.0, "configs/column.yaml",
+                      ("geometry.mesh_size=0.02",)))
+    return cases
+
+
+def quick_plan() -> list[Case]:
+    """One tiny 2D run (3 cm cells, 0.1 s) and its Savage–Hutter twin: for the test suite."""
+    return [Case("column_a2_quick", "column", 2.0, "configs/column.yaml",
+                 ("geometry.mesh_size=0.03", "time.end_time=0.1"))]
+
+
+# ----------------------------------------------------------------------------- config → SH
+def sh_config(cfg: Config, dx: float, x_max: float | None = None, order: int = 2) -> Config:
+    """The same config with ``model.name = savage_hutter``: order 2, cells of ``dx`` on
+    [0, x_max] (default L0 + 6 H0 + 0.2 m, rounded up to whole cells), a wall at x = 0 (the
+    trapezoid's wall or the column's symmetry plane; the 2D wall friction has no 1D
+    counterpart), open downslope, the 1 mm front. What the scene, bed and material mean for
+    the 1D model is ``models.savage_hutter.setup`` (the one mapping)."""
+    geo = cfg.geometry
+    x_max = x_max if x_max is not None else geo.base_length + 6.0 * geo.height + 0.2
+    n = max(2, math.ceil(x_max / dx - 1e-9))
+    return with_overrides(cfg, ["model.name=savage_hutter", f"model.order={order}",
+                                f"model.n_cells={n}", "model.x_min=0", f"model.x_max={n * dx!r}",
+                                "model.left=wall", "model.right=open", "model.shape_factor=1",
+                                f"model.front_threshold={FRONT_THRESHOLD!r}"])
+
+
+def sh_problem(cfg: Config, dx: float, x_max: float | None = None, order: int = 2):
+    """(SavageHutter, Grid, initial polygon, μ_b source) of a trapezoid or column config."""
+    setup = setup_from_config(sh_config(cfg, dx, x_max, order))
+    return setup.model, setup.grid, setup.vertices, setup.friction
+
+
+# ----------------------------------------------------------------------------- runs
+@dataclass
+class Rung:
+    """What one rung gives: status, cost, final profile on the SH grid, front history."""
+
+    status: str
+    t_end: float
+    steps: int
+    wall: float
+    cpu: float
+    h: np.ndarray
+    front_history: np.ndarray          # (n, 2): t, x_f
+    extra: dict = field(default_factory=dict)
+
+
+def run_2d(cfg: Config, run_dir: Path, grid: Grid) -> Rung:
+    """The 2D run (``Simulation``, as ``dpcollapse run``); a failure is a result."""
+    from dpcollapse.ale.remesh import boundary_polygon
+    from dpcollapse.errors import ConvergenceError, MeshError
+    from dpcollapse.io.diagnostics import read_diagnostics
+    from dpcollapse.simulation import Simulation
+
+    if run_dir.exists():
+        shutil.rmtree(run_dir)
+    t0, c0 = time.perf_counter(), time.process_time()
+    sim = Simulation(cfg, run_dir, quiet=True)
+    try:
+        summary = sim.run()
+        status = summary["status"]
+    except (ConvergenceError, MeshError) as exc:
+        summary = {"remeshes": sim.state.remeshes, "area_drift": math.nan, "front": math.nan}
+        status = f"failed: {exc}"
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    poly = boundary_polygon(sim.disc.tagged).points
+    diag = read_diagnostics(run_dir / "diagnostics.csv")
+    history = np.column_stack([[0.0] + diag.get("t", []),
+                               [cfg.geometry.base_length] + diag.get("front", [])])
+    return Rung(status=status, t_end=float(sim.state.t), steps=int(sim.state.step), wall=wall, cpu=cpu,
+                h=polygon_cell_averages(poly, grid), front_history=history,
+                extra={"remeshes": summary.get("remeshes", 0), "area_drift": summary["area_drift"],
+                       "front_mesh": float(np.max(poly[:, 0]))})
+
+
+def run_sh(model: SavageHutter, grid: Grid, poly, end_time: float) -> Rung:
+    """The Savage–Hutter run from the exact cell averages of the 2D initial polygon."""
+    h0 = polygon_cell_averages(poly, grid)
+    t0, c0 = time.perf_counter(), time.process_time()
+    res = simulate(model, grid, h0, [end_time])
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    s = res.series
+    mass_error = abs(res.mass[-1] + s["outflow"][-1] - polygon_area(poly)) / polygon_area(poly)
+    status = "at_rest" if res.rest_time is not None else "end_time"
+    return Rung(status=status, t_end=res.rest_time if res.rest_time is not None else end_time,
+                steps=res.steps, wall=wall, cpu=cpu, h=res.h[-1],
+                front_history=np.column_stack([s["t"], s["front"]]),
+                extra={"mass_error": float(mass_error), "outflow": float(s["outflow"][-1])})
+
+
+def _rel(a: float, b: float) -> float:
+    return (a - b) / abs(b) if b else math.nan
+
+
+def compare(case: Case, work: Path, dx: float) -> tuple[dict, list[tuple]]:
+    """Run both rungs of one case; (CSV row, series rows)."""
+    cfg = case.load()
+    model, grid, poly, friction = sh_problem(cfg, dx, case.sh_x_max)
+    two = run_2d(cfg, work / case.name, grid)
+    sh_end = two.t_end if two.status == "end_time" else SH_MAX_TIME
+    sh = run_sh(model, grid, poly, sh_end)
+    l0 = cfg.geometry.base_length
+    front_2d = front_position(two.h, grid, FRONT_THRESHOLD)
+    front_sh = front_position(sh.h, grid, FRONT_THRESHOLD)
+    runout_2d, runout_sh = front_2d - l0, front_sh - l0
+    height_2d, height_sh = float(two.h.max()), float(sh.h.max())
+    l1 = float(np.sum(np.abs(sh.h - two.h)) * grid.dx)
+    area = polygon_area(poly)
+    rd, hd = _rel(runout_sh, runout_2d), _rel(height_sh, height_2d)
+    for rung, h in ((two, two.h), (sh, sh.h)):
+        if h[-1] > 1e-6 or rung.extra.get("outflow", 0.0) > 1e-9:   # the mass reached x_max
+            rung.status += f" (reached x_max = {grid.x_max:g} m: not comparable)"
+    row = {
+        "case": case.name, "group": case.group, "param": case.param, "config": case.config,
+        "overrides": " ".join(case.overrides), "mesh_size_2d": cfg.geometry.mesh_size,
+        "sh_dx": grid.dx, "sh_order": model.order, "sh_friction": f"{friction} {model.basal}",
+        "status_2d": two.status, "t_end_2d": two.t_end, "steps_2d": two.steps,
+        "remeshes_2d": two.extra["remeshes"], "wall_2d_s": two.wall, "cpu_2d_s": two.cpu,
+        "front_2d_mesh": two.extra["front_mesh"], "front_2d": front_2d, "runout_2d": runout_2d,
+        "height_2d": height_2d, "area_drift_2d": two.extra["area_drift"],
+        "status_sh": sh.status, "t_end_sh": sh.t_end, "steps_sh": sh.steps, "wall_sh_s": sh.wall,
+        "cpu_sh_s": sh.cpu,
+        "front_sh": front_sh, "runout_sh": runout_sh, "height_sh": height_sh,
+        "mass_error_sh": sh.extra["mass_error"],
+        "runout_diff": rd, "height_diff": hd, "l1_diff_m2": l1, "l1_rel": l1 / area,
+        "cost_ratio": two.wall / sh.wall, "cost_ratio_cpu": two.cpu / sh.cpu,
+        "within_5pct": bool(abs(rd) <= WITHIN and abs(hd) <= WITHIN),
+        "l1_sh_exact_m2": math.nan, "l1_2d_exact_m2": math.nan, "front_exact": math.nan,
+    }
+    series = [(case.name, "2d", "front", t, x) for t, x in two.front_history]
+    series += [(case.name, "sh", "front", t, x) for t, x in _thin(sh.front_history, 400)]
+    series += [(case.name, "2d", "profile", x, h) for x, h in zip(grid.centers, two.h)]
+    series += [(case.name, "sh", "profile", x, h) for x, h in zip(grid.centers, sh.h)]
+    if case.group == "dam_break":
+        row.update(_against_mangeney(cfg, grid, two, sh, series, case.name))
+    return row, series
+
+
+def _against_mangeney(cfg: Config, grid: Grid, two: Rung, sh: Rung, series: list, name: str) -> dict:
+    """L1 errors of both rungs against Mangeney et al. (2000) where the wall has not reached."""
+    geo = cfg.geometry
+    t = sh.t_end
+    theta = math.radians(geo.bed_angle)
+    g_cos = cfg.material.gravity * math.cos(theta)
+    c0 = math.sqrt(g_cos * geo.height)
+    m = cfg.material.gravity * math.sin(theta) - g_cos * cfg.boundary.mu_bed
+    x = grid.centers
+    h_exact, _ = mangeney_dam_break(x - geo.base_length, t, geo.height, geo.bed_angle,
+                                    cfg.boundary.bed_friction_angle, cfg.material.gravity)
+    valid = x >= m * t * t / 2 + c0 * t       # not reached by the wall's rarefaction
+    series += [(name, "exact", "profile", xi, hi) for xi, hi in zip(x[valid], h_exact[valid])]
+    ts = np.linspace(1e-6, t, 100)      # the 1 mm front: h = 1 mm in the fan
+    tip_1mm = geo.base_length + m * ts**2 / 2 + 2 * c0 * ts - 3 * ts * math.sqrt(g_cos * FRONT_THRESHOLD)
+    series += [(name, "exact", "front", ti, xi) for ti, xi in zip(ts, tip_1mm)]
+    return {"l1_sh_exact_m2": float(np.sum(np.abs(sh.h - h_exact)[valid]) * grid.dx),
+            "l1_2d_exact_m2": float(np.sum(np.abs(two.h - h_exact)[valid]) * grid.dx),
+            "front_exact": float(tip_1mm[-1])} if t < geo.base_length / (2 * c0) else {}
+
+
+def _thin(a: np.ndarray, n: int) -> np.ndarray:
+    """At most about n rows of a (first and last kept)."""
+    if len(a) <= n:
+        return a
+    idx = np.unique(np.r_[np.linspace(0, len(a) - 1, n).astype(int), len(a) - 1])
+    return a[idx]
+
+
+# ----------------------------------------------------------------------------- files
+SERIES_COLUMNS = ["case", "rung", "kind", "x", "y"]
+
+
+def read_rows(path: Path) -> list[dict]:
+    """The rows of ladder.csv (numbers as floats where they parse)."""
+    if not path.exists():
+        return []
+    with path.open() as fh:
+        rows = list(csv.DictReader(fh))
+    for r in rows:
+        for k, v in r.items():
+            try:
+                r[k] = float(v)
+            except (TypeError, ValueError):
+                pass
+    return rows
+
+
+def read_series(path: Path) -> dict:
+    """{(case, rung, kind): (n, 2) array} from ladder_series.csv."""
+    out: dict = {}
+    if not path.exists():
+        return out
+    with path.open() as fh:
+        for r in csv.DictReader(fh):
+            out.setdefault((r["case"], r["rung"], r["kind"]), []).append((float(r["x"]), float(r["y"])))
+    return {k: np.asarray(v) for k, v in out.items()}
+
+
+def write_results(out: Path, rows: list[dict], series: list[tuple]) -> None:
+    """Rewrite ladder.csv and ladder_series.csv whole (rows in plan order)."""
+    out.mkdir(parents=True, exist_ok=True)
+    with (out / "ladder.csv").open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=COLUMNS)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: _fmt(r.get(k, "")) for k in COLUMNS})
+    with (out / "ladder_series.csv").open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(SERIES_COLUMNS)
+        w.writerows((c, rung, kind, f"{x:.6g}", f"{y:.6g}") for c, rung, kind, x, y in _trim(series))
+
+
+def _trim(series: list[tuple]) -> list[tuple]:
+    """The series as stored (for the chart): each front history thinned to about 200 points,
+    each profile to about 300, cut one cell after its last h > 1 µm (beyond: dry bed, or the
+    precursor film of the SH model)."""
+    groups: dict = {}
+    for row in series:
+        groups.setdefault(row[:3], []).append(row)
+    out = []
+    for (_, _, kind), rows in groups.items():
+        if kind == "front":
+            out += [rows[i] for i in _thin(np.arange(len(rows)), 200)]
+        else:
+            wet = [i for i, r in enumerate(rows) if r[4] > 1e-6]
+            rows = rows[:(wet[-1] + 2) if wet else 1]
+            out += [rows[i] for i in _thin(np.arange(len(rows)), 300)]
+    return out
+
+
+def _fmt(v):
+    if isinstance(v, bool):
+        return str(v)
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return v
+
+
+def _same_case(row: dict, case: Case, dx: float) -> bool:
+    return (row.get("case") == case.name and str(row.get("overrides", "")) == " ".join(case.overrides)
+            and row.get("config") == case.config and abs(float(row.get("sh_dx", 0)) - dx) < 1e-6 * dx)
+
+
+# ----------------------------------------------------------------------------- table
+def table(rows: list[dict]) -> str:
+    """The Markdown table of ladder.csv."""
+    head = ("| case | 2D mesh [m] | 2D status | SH status | runout ΔL 2D / SH [m] | Δ runout | "
+            "H_f 2D / SH [m] | Δ H_f | L1 [m²] (/area) | CPU 2D / SH [s] | cost ratio CPU (wall) | "
+            "within 5 % |")
+    lines = [head, "| " + " | ".join(["---"] * 12) + " |"]
+    for r in rows:
+        lines.append(
+            f"| {r['case']} | {r['mesh_size_2d']:g} | {str(r['status_2d'])[:40]} | {r['status_sh']} | "
+            f"{r['runout_2d']:.4f} / {r['runout_sh']:.4f} | {100 * r['runout_diff']:+.1f} % | "
+            f"{r['height_2d']:.4f} / {r['height_sh']:.4f} | {100 * r['height_diff']:+.1f} % | "
+            f"{r['l1_diff_m2']:.2e} ({r['l1_rel']:.2f}) | {r['cpu_2d_s']:.1f} / {r['cpu_sh_s']:.2f} | "
+            f"{r['cost_ratio_cpu']:.0f} ({r['cost_ratio']:.0f}) | {'yes' if str(r['within_5pct']) == 'True' else 'no'} |")
+    return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- chart
+def plot(rows: list[dict], series: dict, path: Path) -> None:
+    """ladder.png: fronts against time, deposits, the aspect-ratio and slope sweeps, cost."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import matplotlib.ticker
+
+    by = {r["case"]: r for r in rows}
+    fig, axes = plt.subplots(2, 3, figsize=(15, 8.5))
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+
+    ax = axes[0, 0]
+    for i, name in enumerate(n for n in ("rigid", "rigid_slope10", "rigid_slope20", "column_a1",
+                                         "column_a2", "column_a6", "column_a2_quick") if n in by):
+        for rung, style in (("2d", "-"), ("sh", "--")):
+            s = series.get((name, rung, "front"))
+            if s is not None:
+                ax.plot(s[:, 0], s[:, 1] - _l0(by[name]),
+                        style, color=colors[i % len(colors)],
+                        label=f"{name} {'2D' if rung == '2d' else 'SH'}")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("front − L0 [m]")
+    ax.set_title("front against time (2D: mesh tip; SH: 1 mm)", fontsize=9)
+    ax.legend(fontsize=6, ncol=2)
+
+    ax = axes[0, 1]
+    for i, name in enumerate(n for n in ("dam_break_slope22",) if n in by):
+        for rung, style, label in (("2d", "-", "2D"), ("sh", "--", "SH"), ("exact", ":", "exact (1 mm)")):
+            s = series.get((name, rung, "front"))
+            if s is not None:
+                ax.plot(s[:, 0], s[:, 1], style, color="k" if rung == "exact" else colors[i], label=label)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("front [m]")
+    ax.set_title("dam break on a 22° slope (δ = 21°): front", fontsize=9)
+    ax.legend(fontsize=7)
+
+    ax = axes[0, 2]
+    for i, name in enumerate(n for n in ("rigid", "column_a2", "column_a6", "dam_break_slope22",
+                                         "column_a2_quick") if n in by):
+        for rung, style in (("2d", "-"), ("sh", "--"), ("exact", ":")):
+            s = series.get((name, rung, "profile"))
+            if s is not None:
+                ax.plot(s[:, 0], s[:, 1], style, color="k" if rung == "exact" else colors[i % len(colors)],
+                        label=f"{name} {dict(sh='SH', exact='exact').get(rung, '2D')}")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("final thickness h [m]")
+    ax.set_xlim(left=0)
+    ax.set_title("deposits (dam break: at t = 0.5 s)", fontsize=9)
+    ax.legend(fontsize=6)
+
+    ax = axes[1, 0]
+    col = sorted((r for r in rows if r["group"] == "column"), key=lambda r: r["param"])
+    if col:
+        a = [r["param"] for r in col]
+        l0 = [r["front_2d"] - r["runout_2d"] for r in col]
+        ax.plot(a, [r["runout_2d"] / x for r, x in zip(col, l0)], "o-", color=colors[0], label="ΔL/L0 2D")
+        ax.plot(a, [r["runout_sh"] / x for r, x in zip(col, l0)], "o--", color=colors[0], label="ΔL/L0 SH")
+        ax.plot(a, [r["height_2d"] / x for r, x in zip(col, l0)], "s-", color=colors[1], label="H_f/L0 2D")
+        ax.plot(a, [r["height_sh"] / x for r, x in zip(col, l0)], "s--", color=colors[1], label="H_f/L0 SH")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xticks(a)
+        ax.set_xticklabels([f"{v:g}" for v in a])
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax.set_xlabel("aspect ratio a = H0/L0")
+    ax.set_title("column collapse, Coulomb bed μ = tan 25.5°", fontsize=9)
+    ax.legend(fontsize=7)
+
+    ax = axes[1, 1]
+    col = sorted((r for r in rows if r["group"] == "column"), key=lambda r: r["param"])
+    ax.plot([r["param"] for r in col], [100 * r["runout_diff"] for r in col], "o-", color=colors[0],
+            label="runout ΔL, column (bottom axis: a)")
+    ax.plot([r["param"] for r in col], [100 * r["height_diff"] for r in col], "s-", color=colors[1],
+            label="H_f, column (bottom axis: a)")
+    ax.set_xlabel("column aspect ratio a = H0/L0")
+    top = ax.twiny()
+    slope = sorted((r for r in rows if r["group"] in ("rigid", "slope")), key=lambda r: r["param"])
+    top.plot([r["param"] for r in slope], [100 * r["runout_diff"] for r in slope], "o--",
+             color=colors[2], label="runout ΔL, trapezoid (top axis: θ)")
+    top.plot([r["param"] for r in slope], [100 * r["height_diff"] for r in slope], "s--",
+             color=colors[3], label="H_f, trapezoid (top axis: θ)")
+    top.set_xlabel("bed angle θ of the rigid-bed trapezoid [deg]", fontsize=8)
+    ax.axhspan(-100 * WITHIN, 100 * WITHIN, color="0.85", zorder=0)
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_ylabel("(SH − 2D)/2D [%]")
+    ax.set_title("depth-averaged against 2D (grey band: within 5 %)", fontsize=9, pad=22)
+    lines = ax.get_legend_handles_labels()
+    more = top.get_legend_handles_labels()
+    ax.legend(lines[0] + more[0], lines[1] + more[1], fontsize=7)
+
+    ax = axes[1, 2]
+    names = [r["case"] for r in rows]
+    pos = np.arange(len(rows))
+    ax.bar(pos - 0.2, [r["cost_ratio_cpu"] for r in rows], 0.4, color=colors[2], label="CPU time")
+    ax.bar(pos + 0.2, [r["cost_ratio"] for r in rows], 0.4, color=colors[4], label="wall time")
+    ax.legend(fontsize=7)
+    ax.set_yscale("log")
+    ax.set_xticks(range(len(rows)))
+    ax.set_xticklabels(names, rotation=60, ha="right", fontsize=7)
+    ax.set_ylabel("time 2D / time SH")
+    ax.set_title("cost ratio (same process, one run at a time)", fontsize=9)
+    for ax in axes.flat:
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _l0(row: dict) -> float:
+    """L0 of a row: front − runout [m]."""
+    return row["front_2d"] - row["runout_2d"]
+
+
+# ----------------------------------------------------------------------------- SH resolution
+SH_RESOLUTION_DX = (4e-3, 2e-3, 1e-3, 5e-4)
+
+
+def sh_resolution(case: Case, end_time: float | None = None) -> list[dict]:
+    """The Savage–Hutter side of one case alone at Δx = 4, 2, 1, 0.5 mm: how much of its
+    runout and deposit height is resolution (to rest, or to ``end_time``)."""
+    cfg = case.load()
+    out = []
+    for dx in SH_RESOLUTION_DX:
+        model, grid, poly, _ = sh_problem(cfg, dx, case.sh_x_max)
+        sh = run_sh(model, grid, poly, end_time or SH_MAX_TIME)
+        front = front_position(sh.h, grid, FRONT_THRESHOLD)
+        out.append({"dx": dx, "status": sh.status, "t_end": sh.t_end, "steps": sh.steps,
+                    "wall": sh.wall, "runout": front - cfg.geometry.base_length,
+                    "height": float(sh.h.max())})
+    return out
+
+
+# ----------------------------------------------------------------------------- main
+def main(argv=None) -> int:
+    """Run the plan (skipping cases already in the CSV), write the CSVs, the chart, the table."""
+    parser = argparse.ArgumentParser(prog="python -m dpcollapse.validation.ladder")
+    parser.add_argument("--quick", action="store_true",
+                        help="one tiny case (3 cm 2D mesh, 0.1 s; SH Δx 4 mm): the test")
+    parser.add_argument("--out", default="docs", help="folder of ladder.csv, ladder_series.csv, ladder.png")
+    parser.add_argument("--work", default="runs/ladder", help="folder of the 2D run directories")
+    parser.add_argument("--only", nargs="*", default=None, help="run only these cases")
+    parser.add_argument("--redo", action="store_true", help="run cases already in the CSV again")
+    parser.add_argument("--plot-only", action="store_true", help="only redraw from the CSVs")
+    parser.add_argument("--sh-resolution", metavar="CASE",
+                        help="only the Savage–Hutter side of CASE at Δx = 4, 2, 1, 0.5 mm")
+    args = parser.parse_args(argv)
+    if args.sh_resolution:
+        case = next(c for c in full_plan() + quick_plan() if c.name == args.sh_resolution)
+        end = 0.5 if case.group == "dam_break" else None
+        print("dx [m]   status   t_end [s]  steps  wall [s]  runout [m]  H_f [m]")
+        for r in sh_resolution(case, end):
+            print(f"{r['dx']:.4f}  {r['status']:8s} {r['t_end']:8.3f} {r['steps']:6d} {r['wall']:8.2f} "
+                  f"{r['runout']:10.4f} {r['height']:8.4f}")
+        return 0
+    out, work = Path(args.out), Path(args.work)
+    plan = quick_plan() if args.quick else full_plan()
+    dx = SH_DX_QUICK if args.quick else SH_DX
+    done = {r["case"]: r for r in read_rows(out / "ladder.csv")}
+    curves: dict = {}
+    for (c, rung, kind), arr in read_series(out / "ladder_series.csv").items():
+        curves.setdefault(c, []).extend((c, rung, kind, x, y) for x, y in arr)
+
+    def save():
+        names = [c.name for c in plan if c.name in done]
+        names += [n for n in done if n not in names]        # other plans' cases are kept
+        write_results(out, [done[n] for n in names], [s for n in names for s in curves.get(n, [])])
+
+    for case in plan:
+        old = done.get(case.name)
+        fresh = old is not None and _same_case(old, case, dx)
+        wanted = args.only is None or case.name in args.only
+        if args.plot_only or not wanted or (fresh and not args.redo):
+            continue
+        print(f"{case.name}: running ({case.config} {' '.join(case.overrides)})", flush=True)
+        row, series = compare(case, work, dx)
+        done[case.name], curves[case.name] = row, series
+        save()
+        print(f"  2D {row['status_2d']} {row['wall_2d_s']:.1f} s, SH {row['status_sh']} "
+              f"{row['wall_sh_s']:.2f} s: runout {row['runout_2d']:.4f} / {row['runout_sh']:.4f} m, "
+              f"H_f {row['height_2d']:.4f} / {row['height_sh']:.4f} m", flush=True)
+    save()
+    rows = read_rows(out / "ladder.csv")
+    plot(rows, read_series(out / "ladder_series.csv"), out / "ladder.png")
+    print(table(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
