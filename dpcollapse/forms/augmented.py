@@ -12,6 +12,7 @@ problem, for every test pair (v, q)::
   = ∫ ρ f·v + ∫ ρ uⁿ/Δt·v
   − ∫ (σ' − r γ̇):D(v)                                   "multiplier_stress"
   + ∫_Γ (σ_T + r_f δ)·v_T ds                            "boundary_multiplier"
+  − ∫_{Γ_f} γ v·N ds                                    "surface_tension" (seed 000, when on)
 
 The matrix holds only ρ/Δt, uⁿ − w and the penalties r, r_f: it is fixed during a time
 step, so one LU factorization serves every iteration. Width-averaged side-wall friction
@@ -26,6 +27,7 @@ import ufl
 
 from dpcollapse.forms import momentum
 from dpcollapse.forms.friction import tangential
+from dpcollapse.forms.surface_tension import surface_tension
 from dpcollapse.rheology.kinematics import strain_rate
 
 
@@ -61,14 +63,16 @@ def volume_multiplier(traction, slip, r_w, v, dx=ufl.dx):
 
 def augmented_terms(*, rho, dt, body_force, r, u_old, mesh_velocity, sigma, gamma, trial, test,
                     n=None, ds_friction=None, r_f=None, traction=None, slip=None,
-                    r_w=None, side_traction=None, side_slip=None) -> tuple[dict, dict]:
+                    r_w=None, side_traction=None, side_slip=None,
+                    surface=None) -> tuple[dict, dict]:
     """(lhs, rhs): the named terms of step 1 (the module docstring's equation).
 
     lhs: "inertia", "convection" (by uⁿ − w), "augmented_viscous", "pressure",
     "incompressibility", and "boundary_augmentation" when ``ds_friction`` (the friction
     walls) is given, "volume_augmentation" when ``r_w`` is given;
     rhs: "gravity", "previous_velocity", "multiplier_stress", and "boundary_multiplier",
-    "volume_multiplier" likewise. Σ lhs = Σ rhs in the order of the dictionaries.
+    "volume_multiplier" likewise, "surface_tension" when ``surface`` = (γ, ds over the
+    free surface) is given. Σ lhs = Σ rhs in the order of the dictionaries.
     """
     (u, p), (v, q) = trial, test
     lhs = {
@@ -89,4 +93,7 @@ def augmented_terms(*, rho, dt, body_force, r, u_old, mesh_velocity, sigma, gamm
     if r_w is not None:
         lhs["volume_augmentation"] = volume_augmentation(r_w, u, v)
         rhs["volume_multiplier"] = volume_multiplier(side_traction, side_slip, r_w, v)
+    if surface is not None:
+        gamma, ds_surface = surface
+        rhs["surface_tension"] = surface_tension(gamma, v, n, ds_surface)
     return lhs, rhs

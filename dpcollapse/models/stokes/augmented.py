@@ -188,7 +188,9 @@ class AugmentedLagrangianFlow(StokesState):
             mesh_velocity=self.mesh_velocity, sigma=self.sigma, gamma=self.gamma,
             trial=(u, pr), test=(v, q), n=n, ds_friction=ds_f, r_f=r_f, traction=self.traction,
             slip=self.slip, r_w=r_w if self.has_side_walls else None,
-            side_traction=self.side_traction, side_slip=self.side_slip)
+            side_traction=self.side_traction, side_slip=self.side_slip,
+            surface=self._surface_tension(ds))
+        self.rhs_terms = rhs
         L = sum(rhs.values())
         if walls:
             self._setup_friction_nodes(walls)
@@ -507,6 +509,7 @@ class AugmentedLagrangianFlow(StokesState):
         """Augmented Lagrangian iterations for one time step of size ``dt``."""
         s = self.settings
         self.dt.value = dt
+        self.update_surface_tension()
         start = self.iterate.x.array.copy()
         start_multipliers = self.multiplier_arrays()
         A = self.system.assemble_matrix()
