@@ -14,6 +14,7 @@ import math
 
 from dpcollapse.ale.motion import quality
 from dpcollapse.ale.remesh import remesh_domain
+from dpcollapse.errors import MeshError
 
 #: Largest area change a remesh may make by dropping boundary vertices, relative to the
 #: initial area.
@@ -62,6 +63,9 @@ class MovingDomain:
     def remesh(self, tagged, area0: float):
         """A new mesh of the current boundary (``ale.remesh``): (tagged mesh, number of
         boundary vertices kept)."""
-        new, _, nverts = remesh_domain(tagged, self.mesh_size, self.surface_mesh_size,
-                                       REMESH_AREA_TOLERANCE * area0)
+        try:
+            new, _, nverts = remesh_domain(tagged, self.mesh_size, self.surface_mesh_size,
+                                           REMESH_AREA_TOLERANCE * area0)
+        except ValueError as exc:   # the boundary is no longer one simple closed loop
+            raise MeshError(f"mesh degenerate: cannot remesh, {exc}") from exc
         return new, nverts

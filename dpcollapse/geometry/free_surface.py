@@ -15,6 +15,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from dpcollapse import compat
+from dpcollapse.errors import MeshError
 from dpcollapse.geometry.curvature import local_surface_tension_runs
 from dpcollapse.geometry.polygon import chain_boundary
 
@@ -25,7 +26,8 @@ NODE_TOLERANCE = 1e-10
 
 def free_surface_runs(tagged, surface_tags) -> list[np.ndarray] | None:
     """The runs of ``surface_tags`` along the boundary polygon, as (k, 2) point arrays in
-    counter-clockwise order, on rank 0 (None elsewhere)."""
+    counter-clockwise order, on rank 0 (None elsewhere). ValueError (on rank 0) when the
+    boundary is not one simple closed loop."""
     mesh, ft = tagged.mesh, tagged.facet_tags
     nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
     edges = mesh.geometry.x[:, :2][nodes] if len(ft.indices) else np.zeros((0, 2, 2))
@@ -40,14 +42,22 @@ def free_surface_runs(tagged, surface_tags) -> list[np.ndarray] | None:
 
 def surface_tension_nodes(tagged, surface_tags, gamma_bar: float,
                           extent: float) -> tuple[np.ndarray, np.ndarray]:
-    """(points (m, 2), γ (m,)) at the free-surface nodes, on every rank [m, Pa]."""
-    runs = free_surface_runs(tagged, surface_tags)
-    data = None
-    if tagged.mesh.comm.rank == 0:
+    """(points (m, 2), γ (m,)) at the free-surface nodes, on every rank [m, Pa]. MeshError
+    on every rank when the free surface has folded through itself or the bed."""
+    comm = tagged.mesh.comm
+    data = problem = None
+    try:
+        runs = free_surface_runs(tagged, surface_tags)
+    except ValueError as exc:
+        problem = str(exc)
+    if comm.rank == 0 and problem is None:
         gammas = local_surface_tension_runs(runs, gamma_bar, extent)
         data = (np.concatenate(runs) if runs else np.zeros((0, 2)),
                 np.concatenate(gammas) if gammas else np.zeros(0))
-    return tagged.mesh.comm.bcast(data, root=0)
+    data, problem = comm.bcast((data, problem), root=0)
+    if problem is not None:
+        raise MeshError(f"mesh degenerate: no free-surface polyline, {problem}")
+    return data
 
 
 def set_nodal_values(function, points: np.ndarray, values: np.ndarray) -> None:
