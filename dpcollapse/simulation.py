@@ -40,7 +40,6 @@ from dpcollapse.domain import moving
 from dpcollapse.domain.base import make_domain
 from dpcollapse.errors import ConfigError, ConvergenceError, Interrupted, MeshError
 from dpcollapse.geometry.mesher import TaggedMesh
-from dpcollapse.geometry.regions import carry_regions
 from dpcollapse.scenes.registry import build_mesh
 from dpcollapse.io.checkpoint import load_checkpoint, previous_path
 from dpcollapse.io.diagnostics import DiagnosticsWriter
@@ -213,7 +212,6 @@ class Simulation:
         cells_before = self.comm.allreduce(compat.num_owned_cells(old.mesh), op=MPI.SUM)
         fields = old.flow.snapshot()
         tagged, nverts = self.domain.remesh(old.tagged, self.state.area0)
-        tagged = carry_regions(old.tagged, tagged)   # material regions (cell tags)
         self._retire(old)
         self._use(Discretization(tagged, cfg))
         outside = self.disc.flow.transfer(fields)

@@ -171,12 +171,15 @@ def build_regions_model(gmsh, regions: list[tuple[np.ndarray, np.ndarray, int]],
                 point_ids[key] = geo.addPoint(key[0], key[1], 0.0, h)
             ids.append(point_ids[key])
         loop = []
+        segments = boundary_segments(points, tags, size)
         for i in range(n):
             a, b = ids[i], ids[(i + 1) % n]
             if (b, a) in line_ids:
                 loop.append(-line_ids[(b, a)])
                 continue
             line_ids[(a, b)] = line = geo.addLine(a, b)
+            if segments[i]:        # short edges: as in build_polygon_model
+                geo.mesh.setTransfiniteCurve(line, segments[i] + 1)
             loop.append(line)
             if int(tags[i]) != INTERFACE:
                 groups.setdefault(int(tags[i]), []).append(line)
