@@ -1,7 +1,7 @@
 """Run a collapse with the measurements of the erodible-bed report, and plot them.
 
     python benchmarks/erodible.py run CONFIG OUT [--set KEY=VALUE ...]
-    python benchmarks/erodible.py plot OUT.json [OUT.json ...] --png FILE
+    python benchmarks/erodible.py plot OUT.json [OUT.json ...] --png FILE [--rigid RIGID.json]
 
 ``run``: ``dpcollapse run`` of CONFIG into OUT (a run directory) with, after every accepted
 step, the front, and every 10 steps the area of the layer's cells (cell tag LAYER) and of
@@ -93,39 +93,82 @@ def run(config: str, out: str, overrides: list[str]) -> int:
     return code
 
 
-def plot(reports: list[str], png: str) -> None:
+def _profile(data, i, keep_tags):
+    edges, tags = data[f"edges_{i}"], data[f"tags_{i}"]
+    return edges[np.isin(tags, keep_tags)]
+
+
+def plot(reports: list[str], png: str, rigid: str | None = None) -> None:
+    """One row per run: its profiles every PROFILE_EVERY s (the last in red; the rigid-bed
+    run's profile nearest to that time dashed, and its final deposit dotted), and a zoom on
+    the last profile's nodes around the place where it failed; then front against time."""
+    import re
+
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.collections import LineCollection
 
-    from dpcollapse.geometry.mesher import BED
+    from dpcollapse.geometry.mesher import RIGHT, SURFACE
 
-    fig, axes = plt.subplots(len(reports) + 1, 1, figsize=(11, 3.2 * (len(reports) + 1)))
-    for ax, path in zip(axes, reports):
+    free = [SURFACE, RIGHT]
+    rows = len(reports) + 1
+    fig = plt.figure(figsize=(13, 3.3 * rows))
+    grid = fig.add_gridspec(rows, 3)
+    ref = ref_data = None
+    if rigid:
+        ref = json.loads(Path(rigid).read_text())
+        ref_data = np.load(rigid[:-5] + ".npz")
+    cmap = plt.get_cmap("viridis")
+    front_ax = fig.add_subplot(grid[-1, :])
+    for row, path in enumerate(reports):
+        ax, zoom = fig.add_subplot(grid[row, :2]), fig.add_subplot(grid[row, 2])
         rep = json.loads(Path(path).read_text())
         data = np.load(path[:-5] + ".npz")
         times = data["times"]
-        cmap = plt.get_cmap("viridis")
         for i, t in enumerate(times):
-            edges, tags = data[f"edges_{i}"], data[f"tags_{i}"]
-            keep = tags != BED
             last = i == len(times) - 1
-            ax.add_collection(LineCollection(edges[keep], colors=["r" if last else cmap(t / max(times.max(), 1e-9))],
-                                             linewidths=1.4 if last else 0.7))
+            ax.add_collection(LineCollection(_profile(data, i, free), linewidths=1.4 if last else 0.7,
+                                             colors=["r" if last else cmap(t / max(times.max(), 1e-9))]))
+        if ref is not None:
+            rtimes = ref_data["times"]
+            j = int(np.argmin(np.abs(rtimes - times[-1])))
+            ax.add_collection(LineCollection(_profile(ref_data, j, free), colors="k", linestyles="--",
+                                             linewidths=0.9, label=f"rigid bed, t = {rtimes[j]:.3f} s"))
+            ax.add_collection(LineCollection(_profile(ref_data, len(rtimes) - 1, free), colors="0.4",
+                                             linestyles=":", linewidths=0.9,
+                                             label=f"rigid bed at rest, t = {rtimes[-1]:.3f} s"))
+            ax.legend(fontsize=7, loc="upper right")
         ax.set_xlim(0, 0.85)
         ax.set_ylim(0, 0.27)
         ax.set_aspect("equal")
         s = rep["summary"] or {}
-        ax.set_title(f"{Path(path).stem}: exit {rep['exit_code']}, t = {s.get('t', float('nan')):.3f} s "
-                     f"(profiles every {PROFILE_EVERY} s, red: last)", fontsize=9)
+        ax.set_title(f"{Path(path).stem}: exit {rep['exit_code']}, t = {s.get('t', float('nan')):.3f} s, "
+                     f"{s.get('steps')} steps, {s.get('remeshes')} remeshes (profiles every "
+                     f"{PROFILE_EVERY} s, red: last accepted step)", fontsize=8)
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
-        axes[-1].plot(rep["series"]["t"], rep["series"]["front"], label=Path(path).stem)
-    axes[-1].set_xlabel("t [s]")
-    axes[-1].set_ylabel("front [m]")
-    axes[-1].legend(fontsize=8)
+        where = re.search(r"at \(([0-9.]+), ([0-9.]+)\) m", rep.get("error") or "")
+        last_edges = _profile(data, len(times) - 1, free)
+        if where:
+            x0, y0 = map(float, where.groups())
+            zoom.add_collection(LineCollection(last_edges, colors="r", linewidths=0.8))
+            pts = last_edges.reshape(-1, 2)
+            zoom.plot(pts[:, 0], pts[:, 1], "k.", ms=2)
+            zoom.set_xlim(x0 - 0.006, x0 + 0.006)
+            zoom.set_ylim(y0 - 0.004, y0 + 0.006)
+            zoom.set_aspect("equal")
+            zoom.set_title(f"last profile's nodes near the crossing ({x0:.4f}, {y0:.4f}) m",
+                           fontsize=8)
+        else:
+            zoom.set_axis_off()
+        front_ax.plot(rep["series"]["t"], rep["series"]["front"], label=Path(path).stem)
+    if ref is not None:
+        front_ax.plot(ref["series"]["t"], ref["series"]["front"], "k--", label="rigid bed")
+    front_ax.set_xlabel("t [s]")
+    front_ax.set_ylabel("front [m]")
+    front_ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(png, dpi=110)
 
@@ -140,10 +183,11 @@ def main(argv=None) -> int:
     p = sub.add_parser("plot")
     p.add_argument("reports", nargs="+")
     p.add_argument("--png", required=True)
+    p.add_argument("--rigid", help="the .json of a rigid-bed run to compare with")
     args = parser.parse_args(argv)
     if args.command == "run":
         return run(args.config, args.out, args.set)
-    plot(args.reports, args.png)
+    plot(args.reports, args.png, args.rigid)
     return 0
 
 
