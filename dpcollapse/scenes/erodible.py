@@ -5,8 +5,8 @@ The layer [0, L] × [0, h_e] of the same material lies on the rigid bed; the tra
 (DOMAIN the mass, LAYER the layer) in one conforming mesh. Boundaries: the bed y = 0 under
 the layer (``boundary.bed_condition``: Coulomb μ_b or no slip), the wall x = 0 along both
 (Coulomb μ_l), the free surface (flank, top, and the layer's top where the mass does not
-cover it) and the layer's right end x = L (free, its own tag). Seed 000 adds its local
-surface tension on the free surface (``boundary.surface_tension``).
+cover it, and the layer's right end x = L). Seed 000 adds its local surface tension on the
+free surface (``boundary.surface_tension``).
 
 Front: the furthest x of the nodes more than 2 h_e above the bed, i.e. where the mass stands
 at least h_e above the initial layer top (the layer's own end stays at x = L).
@@ -22,7 +22,6 @@ import numpy as np
 from dpcollapse.geometry.erodible import erodible_regions
 from dpcollapse.geometry.mesher import (
     BED,
-    RIGHT,
     SURFACE,
     WALL,
     TaggedMesh,
@@ -83,8 +82,7 @@ class ErodibleScene:
         wall = BoundaryKind.COULOMB if self.mu_wall > 0 else BoundaryKind.SLIP
         return (bed_boundary(BED, self.bed_condition, self.mu_bed),
                 Boundary(WALL, "wall", wall, (-1.0, 0.0), friction=self.mu_wall),
-                Boundary(SURFACE, "surface", BoundaryKind.FREE_SURFACE),
-                Boundary(RIGHT, "layer_end", BoundaryKind.FREE_SURFACE))
+                Boundary(SURFACE, "surface", BoundaryKind.FREE_SURFACE))
 
     def initial_velocity(self):
         return initial_velocity(self.velocity, self.height + self.layer_thickness,

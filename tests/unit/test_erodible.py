@@ -11,7 +11,7 @@ from dpcollapse import compat
 from dpcollapse.ale.remesh import remesh_domain
 from dpcollapse.config import load_config
 from dpcollapse.domain.regions import remesh_regions
-from dpcollapse.geometry.mesher import DOMAIN, LAYER, RIGHT, SURFACE
+from dpcollapse.geometry.mesher import DOMAIN, LAYER, SURFACE
 from dpcollapse.geometry.regions import carry_regions
 from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
 from dpcollapse.scenes.base import BoundaryKind
@@ -66,7 +66,7 @@ def test_two_regions_share_their_interface(erodible):
 def test_boundaries_of_the_layer(erodible):
     cfg, tagged = erodible
     kinds = {b.tag: b.kind for b in scene(cfg).boundaries()}
-    assert kinds[SURFACE] == kinds[RIGHT] == BoundaryKind.FREE_SURFACE
+    assert kinds[SURFACE] == BoundaryKind.FREE_SURFACE
     assert set(np.unique(tagged.facet_tags.values)) == set(kinds)
 
 
