@@ -263,13 +263,22 @@ class ErodibleGeometry(TrapezoidGeometry):
     layer_length: Number = _f(
         0.80, "m", "Length of the layer, from the wall to its free right end (seed 000's "
         "l0 = 80 cm of case II, our reading)", gt=0)
+    layer_end_angle: Number = _f(
+        25.5, "deg", "Slope of the layer's free right end, rising from x = layer_length on the "
+        "bed (a cohesionless layer ends at its angle of repose: seed 000's friction angle)",
+        gt=0, le=90)
     mesh_file: PathStr | None = _mesh_file("trapezoid and its layer")
 
     @property
+    def layer_area(self) -> float:
+        """(layer_length - h_e/(2 tan(layer_end_angle))) * h_e [m^2]."""
+        he = self.layer_thickness
+        return (self.layer_length - 0.5 * he / math.tan(math.radians(self.layer_end_angle))) * he
+
+    @property
     def area(self) -> float:
-        """Mass (l0 + top_length)/2 * h0 plus layer layer_length * h_e [m^2]."""
-        return (0.5 * (self.base_length + self.top_length) * self.height
-                + self.layer_length * self.layer_thickness)
+        """Mass (l0 + top_length)/2 * h0 plus the layer [m^2]."""
+        return 0.5 * (self.base_length + self.top_length) * self.height + self.layer_area
 
     def describe(self) -> str:
         return (f"mass: height {self.height:g} m, base {self.base_length:g} m, top length "
@@ -278,10 +287,13 @@ class ErodibleGeometry(TrapezoidGeometry):
 
     @model_validator(mode="after")
     def _layer_fits(self) -> ErodibleGeometry:
-        if self.layer_length <= self.base_length:
+        if self.layer_length - self.layer_thickness / math.tan(math.radians(
+                self.layer_end_angle)) <= self.base_length:
             raise ConfigError(
                 f"geometry.layer_length = {_fmt(self.layer_length)}: must be > geometry."
-                f"base_length = {_fmt(self.base_length)} m (the layer reaches past the toe)")
+                f"base_length + layer_thickness/tan(layer_end_angle) = "
+                f"{self.base_length + self.layer_thickness / math.tan(math.radians(self.layer_end_angle)):.4g}"
+                " m (the layer's top reaches past the toe)")
         return self
 
 

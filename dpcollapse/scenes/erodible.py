@@ -1,6 +1,7 @@
 """The trapezoid of the rigid-bed collapse released on an erodible layer (seed 000, case II).
 
-The layer [0, L] × [0, h_e] of the same material lies on the rigid bed; the trapezoid of
+The layer [0, L] × [0, h_e] of the same material (its right end a slope at
+``geometry.layer_end_angle``) lies on the rigid bed; the trapezoid of
 ``scenes.trapezoid`` stands on it (``geometry.erodible``). Two material regions as cell tags
 (DOMAIN the mass, LAYER the layer) in one conforming mesh. Boundaries: the bed y = 0 under
 the layer (``boundary.bed_condition``: Coulomb μ_b or no slip), the wall x = 0 along both
@@ -46,6 +47,7 @@ class ErodibleScene:
     flank_angle: float
     layer_thickness: float
     layer_length: float
+    layer_end_angle: float
     mesh_size: float
     surface_mesh_size: float | None
     mesh_file: Path | None
@@ -59,12 +61,12 @@ class ErodibleScene:
     def from_config(cls, cfg) -> ErodibleScene:
         g, b = cfg.geometry, cfg.boundary
         return cls(g.height, g.base_length, g.flank_angle, g.layer_thickness, g.layer_length,
-                   g.mesh_size, g.surface_mesh_size, g.mesh_file, b.bed_condition, b.mu_bed,
+                   g.layer_end_angle, g.mesh_size, g.surface_mesh_size, g.mesh_file, b.bed_condition, b.mu_bed,
                    b.mu_wall, cfg.initial.velocity, cfg.initial.surface_speed)
 
     def regions(self):
         return erodible_regions(self.height, self.base_length, self.flank_angle,
-                                self.layer_thickness, self.layer_length)
+                                self.layer_thickness, self.layer_length, self.layer_end_angle)
 
     def mesh(self, comm) -> TaggedMesh:
         if self.mesh_file:

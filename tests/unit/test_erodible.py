@@ -46,7 +46,7 @@ def test_two_regions_share_their_interface(erodible):
     cfg, tagged = erodible
     g = cfg.geometry
     areas = _region_areas(tagged)
-    assert areas[LAYER] == pytest.approx(g.layer_length * g.layer_thickness, rel=1e-12)
+    assert areas[LAYER] == pytest.approx(g.layer_area, rel=1e-12)
     assert areas[DOMAIN] + areas[LAYER] == pytest.approx(g.area, rel=1e-12)
     mesh = tagged.mesh
     mesh.topology.create_connectivity(1, 2)
