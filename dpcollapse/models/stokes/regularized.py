@@ -107,6 +107,7 @@ class RegularizedFlow(StokesState):
             trial=(u, pr), test=(v, q), n=n, dx=dx, ds=ds,
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
             side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None,
+            weak_walls=self.weak_walls(),
             surface=self._surface_tension(ds))
         self.rhs_terms = rhs
         a = sum(self.terms.values())
