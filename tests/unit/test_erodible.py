@@ -94,3 +94,16 @@ def test_regions_survive_a_remesh_and_a_checkpoint(erodible, tmp_path):
     assert _region_areas(loaded) == pytest.approx(after, rel=1e-12)
     old = load_checkpoint(ROOT / "tests/data/checkpoint_d1fd579/checkpoint.npz", MPI.COMM_SELF)[0]
     assert old.cell_tags is None
+
+
+@pytest.mark.mpi
+def test_remesh_of_the_regions_on_all_ranks(comm):
+    """The interface chained from the cells of every rank, the polygon split and meshed on
+    rank 0, distributed: the regions' areas are the serial ones."""
+    cfg = load_config(CONFIG, COARSE)
+    tagged = scene(cfg).mesh(comm)
+    new, _, nverts = remesh_regions(tagged, 0.015, None, 0.0)
+    serial, _, serial_nverts = remesh_regions(scene(cfg).mesh(MPI.COMM_SELF), 0.015, None, 0.0)
+    assert nverts == serial_nverts
+    assert _region_areas(new) == pytest.approx(_region_areas(serial), rel=1e-12)
+    assert _region_areas(new)[LAYER] == pytest.approx(cfg.geometry.layer_area, rel=1e-12)
