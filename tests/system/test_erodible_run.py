@@ -60,3 +60,26 @@ def test_erodible_run_serial_and_parallel_agree(shared_tmp, comm):
         assert par["iterations"] == ser["iterations"]
         for key in ("t", "front", "kinetic_energy", "area", "max_speed"):
             np.testing.assert_allclose(par[key], ser[key], rtol=1e-6, atol=1e-12, err_msg=key)
+
+
+@pytest.mark.parametrize("method", ["regularized", "augmented_lagrangian"])
+def test_both_models_carry_the_surface_tension(tmp_path, method):
+    """A few steps of either model with the tension on: the right-hand side has the term,
+    and its P1 field γ is, at the surface's nodes, γ0_i C_i of the current surface."""
+    from dpcollapse.geometry.free_surface import surface_tension_nodes
+    from dpcollapse.geometry.mesher import SURFACE
+
+    sim = simulation("erodible.yaml", COARSE + [GAMMA, "time.end_time=0.005",
+                                                f"numerics.method={method}"],
+                     tmp_path, comm=MPI.COMM_SELF)
+    summary = sim.run()
+    assert summary["status"] == "end_time"
+    flow = sim.disc.flow
+    assert list(flow.rhs_terms)[-1] == "surface_tension"
+    flow.update_surface_tension()
+    points, gamma = surface_tension_nodes(sim.disc.tagged, [SURFACE], 6.0, 4.0)
+    x = flow.surface_gamma.function_space.tabulate_dof_coordinates()[:, :2]
+    peak = int(np.argmax(np.abs(gamma)))
+    at_peak = np.flatnonzero(np.linalg.norm(x - points[peak], axis=1) < 1e-12)
+    assert gamma[peak] != 0 and flow.surface_gamma.x.array[at_peak] == pytest.approx(gamma[peak])
+    assert np.abs(flow.surface_gamma.x.array).max() == pytest.approx(abs(gamma[peak]))
