@@ -37,6 +37,7 @@ from dpcollapse.errors import ConfigError
 __all__ = [
     "BoundaryConfig",
     "ColumnGeometry",
+    "ErodibleGeometry",
     "Config",
     "GeometryConfig",
     "LayerGeometry",
@@ -254,6 +255,51 @@ class ColumnGeometry(_Geometry):
         return self
 
 
+class ErodibleGeometry(TrapezoidGeometry):
+    """The trapezoid of ``trapezoid`` released on a layer of the same material (seed 000 case
+    II, erodible bed): the layer [0, layer_length] x [0, layer_thickness] on the bed, the
+    trapezoid on top of it (its base at y = layer_thickness); two material regions (cell
+    tags) in one conforming mesh."""
+
+    shape: Literal["erodible"] = _f("erodible", "", "The trapezoid on an erodible layer")
+    layer_thickness: Number = _f(0.005, "m", "Thickness h_e of the erodible layer", gt=0)
+    layer_length: Number = _f(
+        0.80, "m", "Length of the layer, from the wall to its free right end (seed 000's "
+        "l0 = 80 cm of case II, our reading)", gt=0)
+    layer_end_angle: Number = _f(
+        25.5, "deg", "Slope of the layer's free right end, rising from x = layer_length on the "
+        "bed (a cohesionless layer ends at its angle of repose: seed 000's friction angle)",
+        gt=0, le=90)
+    mesh_file: PathStr | None = _mesh_file("trapezoid and its layer")
+
+    @property
+    def layer_area(self) -> float:
+        """(layer_length - h_e/(2 tan(layer_end_angle))) * h_e [m^2]."""
+        he = self.layer_thickness
+        return (self.layer_length - 0.5 * he / math.tan(math.radians(self.layer_end_angle))) * he
+
+    @property
+    def area(self) -> float:
+        """Mass (l0 + top_length)/2 * h0 plus the layer [m^2]."""
+        return 0.5 * (self.base_length + self.top_length) * self.height + self.layer_area
+
+    def describe(self) -> str:
+        return (f"mass: height {self.height:g} m, base {self.base_length:g} m, top length "
+                f"{self.top_length:.4f} m on a layer {self.layer_thickness:g} m thick, "
+                f"{self.layer_length:g} m long; area {self.area:.4f} m^2")
+
+    @model_validator(mode="after")
+    def _layer_fits(self) -> ErodibleGeometry:
+        if self.layer_length - self.layer_thickness / math.tan(math.radians(
+                self.layer_end_angle)) <= self.base_length:
+            raise ConfigError(
+                f"geometry.layer_length = {_fmt(self.layer_length)}: must be > geometry."
+                f"base_length + layer_thickness/tan(layer_end_angle) = "
+                f"{self.base_length + self.layer_thickness / math.tan(math.radians(self.layer_end_angle)):.4g}"
+                " m (the layer's top reaches past the toe)")
+        return self
+
+
 def _shape_of(value: Any) -> str:
     """The geometry class of a mapping or model: its ``shape``, trapezoid when absent."""
     if isinstance(value, dict):
@@ -263,12 +309,12 @@ def _shape_of(value: Any) -> str:
 
 GeometryConfig = Annotated[
     Annotated[TrapezoidGeometry, Tag("trapezoid")] | Annotated[LayerGeometry, Tag("layer")]
-    | Annotated[ColumnGeometry, Tag("column")],
+    | Annotated[ColumnGeometry, Tag("column")] | Annotated[ErodibleGeometry, Tag("erodible")],
     Discriminator(_shape_of),
 ]
 #: geometry.shape -> its config class
 GEOMETRIES: dict[str, type[_Geometry]] = {"trapezoid": TrapezoidGeometry, "layer": LayerGeometry,
-                                          "column": ColumnGeometry}
+                                          "column": ColumnGeometry, "erodible": ErodibleGeometry}
 
 
 class MaterialConfig(_Section):
@@ -323,6 +369,14 @@ class BoundaryConfig(_Section):
         "(null: no side walls)", gt=0)
     side_wall_friction_angle: Number = _f(
         10.2, "deg", "Side-wall friction angle; mu_w = tan (used with channel_width)", ge=0, lt=90)
+    surface_tension: Number = _f(
+        0.0, "N/m", "Local surface tension of seed 000 on the free surface: the height gamma0_bar "
+        "of gamma0_i = gamma0_bar (max{0, 1 - ((i - i_c)/delta)^2})^2 around the node i_c of "
+        "largest curvature, traction sigma.N = -gamma0_i C_i N (0: off; it must vanish with the "
+        "mesh size, gamma0_bar = o(h))", ge=0)
+    surface_tension_extent: Number = _f(
+        3.0, "nodes", "Extent delta of the local surface tension around i_c, in free-surface "
+        "nodes (used when surface_tension > 0)", gt=0)
 
     @property
     def mu_side(self) -> float:

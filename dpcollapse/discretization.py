@@ -21,7 +21,7 @@ from dpcollapse.ale.motion import MeshMotion, cell_orientation, quality
 from dpcollapse.ale.quality import courant_rate
 from dpcollapse.config import Config
 from dpcollapse.domain.base import make_domain
-from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.geometry.mesher import DOMAIN, TaggedMesh
 from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
 from dpcollapse.rheology.base import Rheology
 from dpcollapse.rheology.drucker_prager import DruckerPrager
@@ -54,7 +54,8 @@ def flow_parameters(cfg: Config, scene=None) -> FlowParameters:
     return FlowParameters(
         density=m.density, gravity=m.gravity, bed_angle=math.radians(cfg.geometry.bed_angle),
         rheology=rheology(cfg), boundaries=scene.boundaries(), channel_width=b.channel_width,
-        mu_side=b.mu_side)
+        mu_side=b.mu_side, surface_tension=b.surface_tension,
+        surface_tension_extent=b.surface_tension_extent)
 
 
 def initial_velocity(cfg: Config):
@@ -99,6 +100,9 @@ class Discretization:
         self.out_pressure = fem.Function(S1, name="pressure")
         self.out_strain_rate = fem.Function(S0, name="strain_rate")
         self.out_flowing = fem.Function(S1, name="flowing")
+        # material region of each cell (cell tag: granular_mass 10, erodible_layer 11)
+        self.out_region = fem.Function(S0, name="material_region")
+        self._set_regions(tagged)
         # per-cell fields of the model (AL: the exact rigid zone γ̇ = 0)
         self.out_cells = [fem.Function(S0, name=name) for name in self.flow.exported_cell_fields]
         D = ufl.sym(ufl.grad(u))
@@ -112,6 +116,35 @@ class Discretization:
         if self.window is not None:
             self._speed = fem.Function(S0)
             self._speed_expr = compat.expression(ufl.sqrt(ufl.inner(u, u)), S0)
+
+    def _set_regions(self, tagged: TaggedMesh) -> None:
+        """``material_region`` = the cell tag of each cell (DOMAIN where there are none)."""
+        self.out_region.x.array[:] = DOMAIN
+        ct = tagged.cell_tags
+        if ct is not None:
+            cells = compat.cell_dofs(self.out_region.function_space)[:, 0]
+            self.out_region.x.array[cells[ct.indices]] = ct.values
+
+    def region_area(self, tag: int, speed_above: float | None = None) -> float:
+        """Area of the cells of region ``tag`` [m²]; with ``speed_above``, only of those whose
+        mean vertex speed |uⁿ| exceeds it (the part of the region set in motion)."""
+        ct = self.tagged.cell_tags
+        n = compat.num_owned_cells(self.mesh)
+        tri = self.mesh.geometry.x[:, :2][compat.geometry_dofmap(self.mesh)[:n, :3]]
+        d1, d2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+        areas = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
+        tags = np.full(n, DOMAIN)
+        if ct is not None:
+            owned = ct.indices < n
+            tags[ct.indices[owned]] = ct.values[owned]
+        mask = tags == tag
+        if speed_above is not None:
+            p1 = fem.Function(self.flow.Vw)
+            p1.interpolate(self.flow.u_old)
+            speed = np.linalg.norm(p1.x.array.reshape(-1, 2), axis=1)
+            dofs = compat.cell_dofs(self.flow.Vw)[:n]
+            mask &= speed[dofs].mean(axis=1) > speed_above
+        return self.comm.allreduce(float(areas[mask].sum()), op=MPI.SUM)
 
     def area(self) -> float:
         return self.comm.allreduce(fem.assemble_scalar(self._area), op=MPI.SUM)
@@ -176,6 +209,10 @@ class Discretization:
         speed = np.linalg.norm(self.out_velocity.x.array.reshape(-1, 2), axis=1)
         self.out_flowing.x.array[:] = (speed > FLOWING_SPEED).astype(float)
         fields = [self.out_velocity, self.out_pressure, self.out_strain_rate, self.out_flowing]
+        fields.append(self.out_region)
+        gamma = getattr(self.flow, "surface_gamma", None)
+        if gamma is not None:       # seed 000's local surface tension γ = γ0 C [Pa]
+            fields.append(gamma)
         for function in self.out_cells:
             cells = compat.cell_dofs(function.function_space)[:, 0]
             function.x.array[cells] = self.flow.cell_field(function.name)

@@ -13,7 +13,8 @@ from __future__ import annotations
 import math
 
 from dpcollapse.ale.motion import quality
-from dpcollapse.ale.remesh import remesh_domain
+from dpcollapse.domain.regions import remesh_regions
+from dpcollapse.errors import MeshError
 
 #: Largest area change a remesh may make by dropping boundary vertices, relative to the
 #: initial area.
@@ -60,8 +61,13 @@ class MovingDomain:
         return None
 
     def remesh(self, tagged, area0: float):
-        """A new mesh of the current boundary (``ale.remesh``): (tagged mesh, number of
-        boundary vertices kept)."""
-        new, _, nverts = remesh_domain(tagged, self.mesh_size, self.surface_mesh_size,
-                                       REMESH_AREA_TOLERANCE * area0)
+        """A new mesh of the current boundary (``ale.remesh``; with several material regions
+        ``domain.regions``, which keeps their interface): (tagged mesh with its cell tags,
+        number of boundary vertices kept). MeshError when the boundary is no longer one
+        simple closed loop (a free surface folded through itself)."""
+        try:
+            new, _, nverts = remesh_regions(tagged, self.mesh_size, self.surface_mesh_size,
+                                            REMESH_AREA_TOLERANCE * area0)
+        except ValueError as exc:   # the boundary is no longer one simple closed loop
+            raise MeshError(f"mesh degenerate: cannot remesh, {exc}") from exc
         return new, nverts

@@ -12,6 +12,7 @@ problem, for every test pair (v, q)::
   = ∫ ρ f·v + ∫ ρ uⁿ/Δt·v
   − ∫ (σ' − r γ̇):D(v)                                   "multiplier_stress"
   + ∫_Γ (σ_T + r_f δ)·v_T ds                            "boundary_multiplier"
+  − ∫_{Γ_f} γ v·N ds                                    "surface_tension" (seed 000, when on)
 
 The matrix holds only ρ/Δt, uⁿ − w and the penalties r, r_f: it is fixed during a time
 step, so one LU factorization serves every iteration. Width-averaged side-wall friction
@@ -33,6 +34,7 @@ import ufl
 
 from dpcollapse.forms import momentum, no_penetration
 from dpcollapse.forms.friction import tangential
+from dpcollapse.forms.surface_tension import surface_tension
 from dpcollapse.rheology.kinematics import strain_rate
 
 
@@ -73,7 +75,8 @@ def volume_multiplier(traction, slip, r_w, v, dx=ufl.dx):
 
 def augmented_terms(*, rho, dt, body_force, r, u_old, mesh_velocity, sigma, gamma, trial, test,
                     n=None, ds_friction=None, r_f=None, traction=None, slip=None,
-                    r_w=None, side_traction=None, side_slip=None, weak_walls=()) -> tuple[dict, dict]:
+                    r_w=None, side_traction=None, side_slip=None, weak_walls=(),
+                    surface=None) -> tuple[dict, dict]:
     """(lhs, rhs): the named terms of step 1 (the module docstring's equation).
 
     lhs: "inertia", "convection" (by uⁿ − w), "augmented_viscous", "pressure",
@@ -82,7 +85,8 @@ def augmented_terms(*, rho, dt, body_force, r, u_old, mesh_velocity, sigma, gamm
     rhs: "gravity", "previous_velocity", "multiplier_stress", and "boundary_multiplier",
     "volume_multiplier" likewise; for each (name, ds) of ``weak_walls`` (slanted solid
     sides) "<name>" on the left and "<name>" with "_no_penetration" replaced by
-    "_normal_multiplier" on the right. Σ lhs = Σ rhs in the order of the dictionaries.
+    "_normal_multiplier" on the right; "surface_tension" (last) when ``surface`` = (γ, ds
+    over the free surface) is given. Σ lhs = Σ rhs in the order of the dictionaries.
     """
     (u, p), (v, q) = trial, test
     lhs = {
@@ -107,4 +111,7 @@ def augmented_terms(*, rho, dt, body_force, r, u_old, mesh_velocity, sigma, gamm
         lhs[name] = no_penetration.nitsche_no_penetration(r, u, p, v, q, n, ds_wall)
         rhs[name.replace("_no_penetration", "_normal_multiplier")] = normal_multiplier(
             sigma, gamma, r, v, n, ds_wall)
+    if surface is not None:
+        tension, ds_surface = surface
+        rhs["surface_tension"] = surface_tension(tension, v, n, ds_surface)
     return lhs, rhs

@@ -12,6 +12,7 @@ For (u, p) = (u^{n+1,k+1}, p^{n+1,k+1}) and every test pair (v, q)::
           "<wall>_no_penetration"  Nitsche's u·n = 0 on a slanted side, with S (forms.no_penetration)
     rhs:  "gravity"            ∫ ρ f·v
           "previous_velocity"  ∫ ρ uⁿ/Δt · v
+          "surface_tension"    −∫_{Γ_f} γ v·N ds   (seed 000's local surface tension, when on)
 
 The system is Σ lhs = Σ rhs, summed in the order of the dictionaries. Each term is the
 pure function of ``forms.momentum`` or ``forms.friction`` that documents its integral.
@@ -22,17 +23,19 @@ from __future__ import annotations
 import ufl
 
 from dpcollapse.forms import friction, momentum, no_penetration
+from dpcollapse.forms.surface_tension import surface_tension
 
 
 def picard_terms(law, *, rho, dt, body_force, epsilon, epsilon_friction, u_iter, p_iter, u_old,
                  mesh_velocity, trial, test, n, dx=ufl.dx, ds=None, friction_walls=(),
-                 side_walls=None, weak_walls=()) -> tuple[dict, dict]:
+                 side_walls=None, weak_walls=(), surface=None) -> tuple[dict, dict]:
     """(lhs, rhs): the named bilinear and linear terms (UFL forms) of one Picard iteration.
 
     law: a :class:`~dpcollapse.rheology.base.Rheology`; trial = (u, p), test = (v, q);
     friction_walls: (name, μ, facet tag) of each Coulomb wall, integrated on ``ds(tag)``;
     side_walls: (w, μ_w) for width-averaged side-wall friction, or None;
-    weak_walls: (term name, facet tag) of each slanted solid side (Nitsche's u·n = 0).
+    weak_walls: (term name, facet tag) of each slanted solid side (Nitsche's u·n = 0);
+    surface: (γ, ds over the free surface) of the local surface tension, or None.
     """
     (u, p), (v, q) = trial, test
     secant = law.secant_viscosity(u_iter, p_iter, epsilon)
@@ -58,4 +61,7 @@ def picard_terms(law, *, rho, dt, body_force, epsilon, epsilon_friction, u_iter,
         "gravity": momentum.gravity(rho, body_force, v),
         "previous_velocity": momentum.previous_velocity(rho, dt, u_old, v),
     }
+    if surface is not None:
+        gamma, ds_surface = surface
+        rhs["surface_tension"] = surface_tension(gamma, v, n, ds_surface)
     return lhs, rhs

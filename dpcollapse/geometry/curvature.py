@@ -68,3 +68,21 @@ def local_surface_tension(points: np.ndarray, gamma_bar: float, extent: float) -
         return np.zeros_like(curvature)
     centre = int(np.argmax(np.abs(curvature)))
     return gamma_bar * bump_weights(len(curvature), centre, extent) * curvature
+
+
+def local_surface_tension_runs(runs: list[np.ndarray], gamma_bar: float,
+                               extent: float) -> list[np.ndarray]:
+    """``local_surface_tension`` over a free surface made of several open polylines (runs of
+    one boundary tag between corners): C_i on each run (0 at its end nodes), one node i_c of
+    largest |C| over all runs, the bump of height γ̄0 and extent δ on the run that holds it
+    (counted along that run), zero on the others [Pa], one array per run."""
+    curvatures = [discrete_curvature(run) for run in runs]
+    out = [np.zeros_like(c) for c in curvatures]
+    if gamma_bar == 0.0 or not any(np.any(c) for c in curvatures):
+        return out
+    peaks = [float(np.abs(c).max()) if len(c) else 0.0 for c in curvatures]
+    k = int(np.argmax(peaks))
+    c = curvatures[k]
+    centre = int(np.argmax(np.abs(c)))
+    out[k] = gamma_bar * bump_weights(len(c), centre, extent) * c
+    return out

@@ -22,6 +22,11 @@ from dpcollapse import compat
 BED, WALL, SURFACE, LEFT, RIGHT = 1, 2, 3, 4, 5
 TAG_NAMES = {BED: "bed", WALL: "wall", SURFACE: "surface", LEFT: "left", RIGHT: "right"}
 DOMAIN = 10
+#: Cell tag of an erodible layer under the mass (same material; a second region). Interior
+#: polygon edges (between two regions) carry the edge tag INTERFACE and no facet tag.
+LAYER = 11
+INTERFACE = 0
+REGION_NAMES = {DOMAIN: "granular_mass", LAYER: "erodible_layer"}
 #: Polygon edges up to this many target sizes long get their number of mesh edges from
 #: ``boundary_segments``; longer ones (the initial shape's sides) are split by gmsh at h.
 SINGLE_SEGMENT = 1.5
@@ -140,6 +145,82 @@ def mesh_polygon(comm: MPI.Comm, points: np.ndarray | None, edge_tags: np.ndarra
         mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
     mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
     return TaggedMesh(mesh, facet_tags, cell_tags)
+
+
+def build_regions_model(gmsh, regions: list[tuple[np.ndarray, np.ndarray, int]],
+                        size: Callable[[np.ndarray, int], float]) -> None:
+    """Add one plane surface per region ``(points, edge_tags, cell_tag)`` (each CCW, edge i
+    from point i to i+1), sharing the gmsh points and lines of coincident vertices and
+    edges, so that the regions' meshes are conforming along their common edges (tagged
+    INTERFACE: interior, no physical line). Physical lines: the other edge tags; physical
+    surfaces: the regions' cell tags."""
+    gmsh.model.add("domain")
+    geo = gmsh.model.geo
+    point_ids: dict[tuple[float, float], int] = {}
+    line_ids: dict[tuple[int, int], int] = {}
+    groups: dict[int, list[int]] = {}
+    surfaces: dict[int, list[int]] = {}
+    for points, tags, cell_tag in regions:
+        points, tags = np.asarray(points, dtype=float), np.asarray(tags)
+        n = len(points)
+        ids = []
+        for i, (x, y) in enumerate(points):
+            key = (float(x), float(y))
+            if key not in point_ids:
+                h = min(size(points[i], int(tags[i])), size(points[i], int(tags[i - 1])))
+                point_ids[key] = geo.addPoint(key[0], key[1], 0.0, h)
+            ids.append(point_ids[key])
+        loop = []
+        segments = boundary_segments(points, tags, size)
+        for i in range(n):
+            a, b = ids[i], ids[(i + 1) % n]
+            if (b, a) in line_ids:
+                loop.append(-line_ids[(b, a)])
+                continue
+            line_ids[(a, b)] = line = geo.addLine(a, b)
+            if segments[i]:        # short edges: as in build_polygon_model
+                geo.mesh.setTransfiniteCurve(line, segments[i] + 1)
+            loop.append(line)
+            if int(tags[i]) != INTERFACE:
+                groups.setdefault(int(tags[i]), []).append(line)
+        surfaces.setdefault(int(cell_tag), []).append(geo.addPlaneSurface([geo.addCurveLoop(loop)]))
+    geo.synchronize()
+    for tag in sorted(groups):
+        gmsh.model.addPhysicalGroup(1, groups[tag], tag)
+        gmsh.model.setPhysicalName(1, tag, TAG_NAMES.get(tag, str(tag)))
+    for tag in sorted(surfaces):
+        gmsh.model.addPhysicalGroup(2, surfaces[tag], tag)
+        gmsh.model.setPhysicalName(2, tag, REGION_NAMES.get(tag, str(tag)))
+    gmsh.option.setNumber("Mesh.Algorithm", 6)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 1)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    sizes = [size(p, int(t)) for points, tags, _ in regions for p, t in zip(points, tags)]
+    gmsh.option.setNumber("Mesh.MeshSizeMax", float(max(sizes)))
+    gmsh.model.mesh.generate(2)
+
+
+def mesh_regions(comm: MPI.Comm, regions: list | None, mesh_size: float,
+                 surface_mesh_size: float | None = None) -> TaggedMesh:
+    """Mesh the regions (``build_regions_model``; given on rank 0, None elsewhere) over
+    ``comm``: one conforming mesh, cells tagged by region."""
+    size = size_function(mesh_size, surface_mesh_size)
+    if comm.rank == 0:
+        with gmsh_session() as gmsh:
+            build_regions_model(gmsh, regions, size)
+            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
+    else:
+        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
+    mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
+    return TaggedMesh(mesh, facet_tags, cell_tags)
+
+
+def write_regions_msh(path, regions: list, mesh_size: float,
+                      surface_mesh_size: float | None = None) -> None:
+    """Write the gmsh mesh of the regions to a ``.msh`` file (serial)."""
+    with gmsh_session() as gmsh:
+        build_regions_model(gmsh, regions, size_function(mesh_size, surface_mesh_size))
+        gmsh.write(str(path))
 
 
 def write_polygon_msh(path, points: np.ndarray, edge_tags: np.ndarray, mesh_size: float,

@@ -201,7 +201,7 @@ def chain_boundary(edges: np.ndarray, tags: np.ndarray) -> BoundaryPolygon:
         e = inc[v, 1] if inc[v, 0] == e else inc[v, 0]
     pts = verts[order]
     if not polygon_is_simple(pts):
-        raise ValueError("boundary loop intersects itself")
+        raise ValueError(f"boundary loop intersects itself{_where_it_crosses(pts, etag)}")
     if _signed_area(pts) == 0:
         raise ValueError("boundary loop has zero area")
     if _signed_area(pts) < 0:
@@ -212,6 +212,24 @@ def chain_boundary(edges: np.ndarray, tags: np.ndarray) -> BoundaryPolygon:
     start = cand[np.lexsort((pts[cand, 0], pts[cand, 1]))[0]]
     pts, etag = np.roll(pts, -start, axis=0), np.roll(etag, -start)
     return BoundaryPolygon(pts, etag)
+
+
+def _where_it_crosses(points: np.ndarray, edge_tags: np.ndarray) -> str:
+    """' at (x, y): edges tagged a and b' for the first pair of non-adjacent edges (in
+    polygon order) that share a point; '' if none is found (an edge folding back)."""
+    a, b = points, np.roll(points, -1, axis=0)
+    n = len(points)
+    for i in range(n):
+        j = np.arange(i + 2, n if i > 0 else n - 1)
+        if not j.size:
+            continue
+        hit = segments_intersect(a[i], b[i], a[j], b[j])
+        if hit.any():
+            k = int(j[np.argmax(hit)])
+            x, y = 0.5 * (a[i] + b[i])
+            return (f" at ({x:.4f}, {y:.4f}) m: edges tagged {int(edge_tags[i])} and "
+                    f"{int(edge_tags[k])} cross (polygon edges {i} and {k} of {n})")
+    return ""
 
 
 # ----------------------------------------------------------------------------- resampling

@@ -1,7 +1,7 @@
 """Hand-written checkpoints (this DOLFINx build has no ADIOS2).
 
-A checkpoint holds the whole current mesh (global node coordinates, cells, tagged boundary
-edges), the accepted state uⁿ (P2) and pⁿ (P1) cell by cell, and the time-loop counters.
+A checkpoint holds the whole current mesh (global node coordinates, cells, their material
+region tags, tagged boundary edges), the accepted state uⁿ (P2) and pⁿ (P1) cell by cell, and the time-loop counters.
 It is written by rank 0 to ``checkpoint.npz`` through a temporary file and a rename, so
 the file on disk is always a complete checkpoint. Because fields are stored cell by cell
 on the global mesh, a run may be resumed on a different number of MPI ranks.
@@ -16,30 +16,46 @@ from pathlib import Path
 import numpy as np
 
 from dpcollapse import compat
-from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.geometry.mesher import DOMAIN, TaggedMesh
+from dpcollapse.geometry.regions import region_field, tag_cells
 from dpcollapse.io.durable import fsync_path
 from dpcollapse.transfer import CellwiseField
 
 
+def _owned_cell_tags(tagged: TaggedMesh) -> np.ndarray | None:
+    """The region tag of each owned cell (None when the mesh has no cell tags)."""
+    ct = tagged.cell_tags
+    if ct is None:
+        return None
+    n = compat.num_owned_cells(tagged.mesh)
+    tags = np.full(n, DOMAIN, dtype=np.int32)
+    owned = ct.indices < n
+    tags[ct.indices[owned]] = ct.values[owned]
+    return tags
+
+
 def _global_mesh(tagged: TaggedMesh):
-    """(x, cells, edges, edge_tags) of the distributed mesh, on rank 0 (None elsewhere)."""
+    """(x, cells, edges, edge_tags, cell_tags or None) of the distributed mesh, on rank 0
+    (None elsewhere)."""
     mesh, ft = tagged.mesh, tagged.facet_tags
     n = compat.num_owned_cells(mesh)
     tri = mesh.geometry.x[:, :2][compat.geometry_dofmap(mesh)[:n]]
     nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
     edges = mesh.geometry.x[:, :2][nodes] if len(ft.indices) else np.zeros((0, 2, 2))
-    parts = mesh.comm.gather((tri, edges, np.asarray(ft.values)), root=0)
+    parts = mesh.comm.gather((tri, edges, np.asarray(ft.values), _owned_cell_tags(tagged)), root=0)
     if mesh.comm.rank != 0:
         return None
     tri = np.concatenate([p[0] for p in parts])
     edges = np.concatenate([p[1] for p in parts])
     tags = np.concatenate([p[2] for p in parts])
+    cell_tags = (None if any(p[3] is None for p in parts)
+                 else np.concatenate([p[3] for p in parts]))
     x, inverse = np.unique(tri.reshape(-1, 2), axis=0, return_inverse=True)
     cells = inverse.reshape(-1, 3).astype(np.int64)
     lookup = {tuple(p): i for i, p in enumerate(x)}
     edge_nodes = np.array([[lookup[tuple(a)], lookup[tuple(b)]] for a, b in edges], dtype=np.int64)
     edge_nodes, first = np.unique(np.sort(edge_nodes, axis=1), axis=0, return_index=True)
-    return x, cells, edge_nodes.reshape(-1, 2), tags[first]
+    return x, cells, edge_nodes.reshape(-1, 2), tags[first], cell_tags
 
 
 def save_checkpoint(path: Path, tagged: TaggedMesh, u: CellwiseField, p: CellwiseField,
@@ -49,9 +65,11 @@ def save_checkpoint(path: Path, tagged: TaggedMesh, u: CellwiseField, p: Cellwis
     mesh_data = _global_mesh(tagged)
     if tagged.mesh.comm.rank != 0:
         return
-    x, cells, edges, edge_tags = mesh_data
+    x, cells, edges, edge_tags, cell_tags = mesh_data
     arrays = {"mesh_x": x, "mesh_cells": cells, "mesh_edges": edges, "mesh_edge_tags": edge_tags,
               "state": np.array(json.dumps(state))}
+    if cell_tags is not None:
+        arrays["mesh_cell_tags"] = cell_tags
     arrays.update({f"u_{k}": v for k, v in u.to_arrays().items()})
     arrays.update({f"p_{k}": v for k, v in p.to_arrays().items()})
     extra = extra or {}
@@ -139,7 +157,8 @@ def choose_checkpoint(path: Path, comm, required: tuple[str, ...] = _REQUIRED) -
 def load_checkpoint(path: Path, comm) -> tuple[TaggedMesh, CellwiseField, CellwiseField, dict, dict]:
     """Rebuild the mesh (distributed over ``comm``) and the fields from a checkpoint:
     (mesh, u, p, state, extra fields by name). A damaged ``path`` falls back to the
-    previous checkpoint (:func:`choose_checkpoint`)."""
+    previous checkpoint (:func:`choose_checkpoint`). The cell tags are restored when the
+    checkpoint has them (``mesh_cell_tags``; older checkpoints have none: no cell tags)."""
     data = np.load(choose_checkpoint(path, comm))
     names = [str(n) for n in data["extra_fields"]] if "extra_fields" in data.files else []
     extra = {name: CellwiseField.from_arrays({k[len(name) + 3:]: data[k] for k in data.files
@@ -154,4 +173,9 @@ def load_checkpoint(path: Path, comm) -> tuple[TaggedMesh, CellwiseField, Cellwi
         x, cells = np.zeros((0, 2)), np.zeros((0, 3), dtype=np.int64)
         edges, edge_tags = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int32)
     tagged = compat.mesh_with_facet_tags(comm, cells, x, edges, edge_tags)
+    has_regions = comm.bcast("mesh_cell_tags" in data.files, root=0)
+    if has_regions:
+        regions = (x[cells], data["mesh_cell_tags"]) if comm.rank == 0 else None
+        triangles, cell_tags = comm.bcast(regions, root=0)
+        tagged.cell_tags = tag_cells(tagged.mesh, region_field(triangles, cell_tags))
     return tagged, u, p, state, extra

@@ -16,6 +16,7 @@ from dpcollapse.geometry.curvature import (
     bump_weights,
     discrete_curvature,
     local_surface_tension,
+    local_surface_tension_runs,
     turning_angles,
 )
 
@@ -95,3 +96,75 @@ def test_surface_tension_term_assembled_alone():
     gamma = fem.Constant(msh, compat.ScalarType(3.0))
     value = fem.assemble_scalar(fem.form(surface_tension(gamma, v, ufl.FacetNormal(msh), ds(3))))
     assert value == pytest.approx(-6.0, rel=1e-12)
+
+
+def test_local_surface_tension_over_several_runs():
+    """One node of largest |C| over all runs; the bump only on its run, counted along it."""
+    flat = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    bent = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.0, 2.0]])
+    gammas = local_surface_tension_runs([flat, bent], 0.5, 2.0)
+    c = discrete_curvature(bent)          # +π/2, +π/2, −π/2 at nodes 1, 2, 3
+    assert not np.any(gammas[0])
+    assert gammas[1][1] == pytest.approx(0.5 * c[1])                    # i_c = 1 (first max)
+    assert gammas[1][2] == pytest.approx(0.5 * (1 - 0.25) ** 2 * c[2])  # |i − i_c| = 1
+    assert gammas[1][3] == 0.0 and gammas[1][0] == 0.0 and gammas[1][4] == 0.0
+
+
+# ------------------------------------------------------------- the field on a mesh
+RIGHT_TOP = 3
+
+
+def _square(comm, n=4):
+    """The unit square, n × n cells; its right and top sides tagged as one free surface
+    (RIGHT_TOP), the bottom 1 and the left 2: the surface run (1, 0) → (1, 1) → (0, 1) turns
+    by +π/2 at the corner (1, 1) between edges of 1/n, C = (π/2)/(1/n) there, 0 elsewhere."""
+    from dolfinx import mesh as dmesh
+
+    from dpcollapse.geometry.mesher import TaggedMesh
+
+    msh = compat.create_rectangle(comm, (0.0, 0.0), (1.0, 1.0), (n, n))
+    fdim = 1
+    msh.topology.create_connectivity(fdim, 2)
+    sides = [(1, lambda x: np.isclose(x[1], 0.0)), (2, lambda x: np.isclose(x[0], 0.0)),
+             (RIGHT_TOP, lambda x: np.isclose(x[0], 1.0) | np.isclose(x[1], 1.0))]
+    found = [(tag, dmesh.locate_entities_boundary(msh, fdim, where)) for tag, where in sides]
+    indices = np.concatenate([f for _, f in found])
+    values = np.concatenate([np.full(len(f), tag, dtype=np.int32) for tag, f in found])
+    indices, first = np.unique(indices, return_index=True)  # corners: the first side's tag
+    return TaggedMesh(msh, compat.meshtags(msh, fdim, indices, values[first]))
+
+
+def _surface_tension_on_square(comm):
+    """γ (P1) from the mesh of the unit square (γ̄0 = 0.1, δ = 2) and −∫ γ v·N ds, v = (1, 1)."""
+    from dpcollapse.geometry.free_surface import set_nodal_values, surface_tension_nodes
+
+    tagged = _square(comm)
+    points, gamma = surface_tension_nodes(tagged, [RIGHT_TOP], 0.1, 2.0)
+    field = fem.Function(compat.scalar_space(tagged.mesh, 1))
+    set_nodal_values(field, points, gamma)
+    ds = ufl.Measure("ds", domain=tagged.mesh, subdomain_data=tagged.facet_tags)
+    v = ufl.as_vector([1.0, 1.0])
+    term = fem.assemble_scalar(fem.form(surface_tension(field, v, ufl.FacetNormal(tagged.mesh),
+                                                        ds(RIGHT_TOP))))
+    return points, gamma, comm.allreduce(term, op=MPI.SUM)
+
+
+def test_surface_tension_field_on_a_mesh_by_hand():
+    """Only the corner (1, 1) carries γ = γ̄0 C = 0.1 · 2π; its P1 hat integrates to γ h/2 on
+    each of the two sides (N = (1, 0), then (0, 1)), so −∫ γ v·N ds = −2 · 0.2π · 0.125."""
+    points, gamma, term = _surface_tension_on_square(MPI.COMM_SELF)
+    corner = np.flatnonzero(np.all(np.isclose(points, [1.0, 1.0]), axis=1))
+    assert gamma[corner] == pytest.approx(0.1 * 2 * math.pi)
+    assert np.count_nonzero(gamma) == 1
+    assert term == pytest.approx(-2 * 0.2 * math.pi * 0.125, rel=1e-12)
+
+
+@pytest.mark.mpi
+def test_surface_tension_field_serial_and_parallel_agree(comm):
+    """The free surface spans both ranks: the gathered polyline, γ and the term are those of
+    the serial mesh."""
+    points, gamma, term = _surface_tension_on_square(comm)
+    serial_points, serial_gamma, serial_term = _surface_tension_on_square(MPI.COMM_SELF)
+    np.testing.assert_array_equal(points, serial_points)
+    np.testing.assert_allclose(gamma, serial_gamma, rtol=1e-14)
+    assert term == pytest.approx(serial_term, rel=1e-12)

@@ -254,3 +254,30 @@ def test_augmented_terms_are_the_named_terms(omega):
     assert list(rhs)[-2:] == ["boundary_multiplier", "volume_multiplier"]
     assert value(lhs["volume_augmentation"]) == pytest.approx(5.0 * AREA, rel=1e-12)
     assert value(rhs["boundary_multiplier"]) == pytest.approx((1 + 3.0) * LX, rel=1e-12)
+
+
+def test_surface_tension_term_in_both_models_terms(omega):
+    """"surface_tension" = −∫_Γf γ v·N ds, the last right-hand-side term of both models when
+    the free surface (γ, ds) is given: on the top y = 0.2 (N = (0, 1)) with γ = x (P1) and
+    v = (x + y, 2 + x), −∫_0^0.3 x (2 + x) dx = −(0.3² + 0.3³/3) = −0.099; absent otherwise."""
+    msh, _, _, ds = omega
+    gamma = fem.Function(compat.scalar_space(msh, 1))
+    gamma.interpolate(lambda x: x[0])
+    v = vec(omega, lambda x, y: x + y, lambda x, y: 2 + x)
+    p = scal(omega, lambda x, y: 1)
+    expected = -(LX**2 + LX**3 / 3)
+    n = ufl.FacetNormal(msh)
+    args = dict(rho=const(omega, RHO), dt=const(omega, DT), body_force=const(omega, (0.0, -9.81)),
+                u_old=v, mesh_velocity=v, trial=(v, p), test=(v, p), n=n)
+    _, rhs = picard_terms(DruckerPrager(0.5, 0.4), epsilon=1e-6, epsilon_friction=1e-6,
+                          u_iter=v, p_iter=p, ds=ds, **args)
+    assert "surface_tension" not in rhs
+    _, rhs = picard_terms(DruckerPrager(0.5, 0.4), epsilon=1e-6, epsilon_friction=1e-6,
+                          u_iter=v, p_iter=p, ds=ds, surface=(gamma, ds(TOP)), **args)
+    assert list(rhs)[-1] == "surface_tension"
+    assert value(rhs["surface_tension"]) == pytest.approx(expected, rel=1e-12)
+    zero = [[0.0, 0.0], [0.0, 0.0]]
+    _, rhs = augmented.augmented_terms(r=const(omega, 100.0), sigma=const(omega, zero),
+                                       gamma=const(omega, zero), surface=(gamma, ds(TOP)), **args)
+    assert list(rhs)[-1] == "surface_tension"
+    assert value(rhs["surface_tension"]) == pytest.approx(expected, rel=1e-12)

@@ -189,7 +189,9 @@ class AugmentedLagrangianFlow(StokesState):
             trial=(u, pr), test=(v, q), n=n, ds_friction=ds_f, r_f=r_f, traction=self.traction,
             slip=self.slip, r_w=r_w if self.has_side_walls else None,
             side_traction=self.side_traction, side_slip=self.side_slip,
-            weak_walls=[(name, ds(tag)) for name, tag in self.weak_walls()])
+            weak_walls=[(name, ds(tag)) for name, tag in self.weak_walls()],
+            surface=self._surface_tension(ds))
+        self.rhs_terms = rhs
         L = sum(rhs.values())
         if walls:
             self._setup_friction_nodes(walls)
@@ -508,6 +510,7 @@ class AugmentedLagrangianFlow(StokesState):
         """Augmented Lagrangian iterations for one time step of size ``dt``."""
         s = self.settings
         self.dt.value = dt
+        self.update_surface_tension()
         start = self.iterate.x.array.copy()
         start_multipliers = self.multiplier_arrays()
         A = self.system.assemble_matrix()

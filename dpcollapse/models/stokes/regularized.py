@@ -107,7 +107,9 @@ class RegularizedFlow(StokesState):
             trial=(u, pr), test=(v, q), n=n, dx=dx, ds=ds,
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
             side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None,
-            weak_walls=self.weak_walls())
+            weak_walls=self.weak_walls(),
+            surface=self._surface_tension(ds))
+        self.rhs_terms = rhs
         a = sum(self.terms.values())
         L = sum(rhs.values())
         self.system = self._make_system(a, L)
@@ -149,6 +151,7 @@ class RegularizedFlow(StokesState):
         """Picard iterations for one time step of size ``dt`` on the current mesh."""
         s = self.settings
         self.dt.value = dt
+        self.update_surface_tension()
         start = self.iterate.x.array.copy()
         history = self._history
         extrapolated = s.extrapolate and history is not None

@@ -23,6 +23,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from dpcollapse import compat
+from dpcollapse.geometry.free_surface import set_nodal_values, surface_tension_nodes
 from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.rheology.base import Rheology
 from dpcollapse.scenes.base import SOLID, Boundary, BoundaryKind
@@ -41,6 +42,8 @@ class FlowParameters:
     boundaries: tuple[Boundary, ...] = ()  # of the scene (scenes.base): kind, normal, μ per tag
     channel_width: float | None = None  # w: side-wall friction (2/w) μ_w p u/|u| when given
     mu_side: float = 0.0      # μ_w
+    surface_tension: float = 0.0         # γ̄0 [N/m] of seed 000's local surface tension (0: off)
+    surface_tension_extent: float = 3.0  # δ [free-surface nodes]
 
     def of_kind(self, *kinds: BoundaryKind) -> list[Boundary]:
         """The boundaries of the given kinds, in the scene's order."""
@@ -139,6 +142,30 @@ class StokesState:
         Nitsche's method (``forms.no_penetration``)."""
         return [(f"{b.name}_no_penetration", b.tag) for b in self.params.of_kind(*SOLID)
                 if b.slanted and self._has_tag(b.tag)]
+
+    # ------------------------------------------------------------------ surface tension
+    def _surface_tension(self, ds):
+        """(γ, ds over the free surface) for the forms' "surface_tension" term when
+        ``params.surface_tension`` γ̄0 > 0 (γ the P1 field ``surface_gamma``, set from the
+        current surface by ``update_surface_tension``), else None (no term: the forms are
+        those without it)."""
+        self.surface_gamma = None
+        tags = [b.tag for b in self.params.of_kind(BoundaryKind.FREE_SURFACE) if self._has_tag(b.tag)]
+        if not (self.params.surface_tension > 0 and tags):
+            return None
+        self._surface_tags = tags
+        self.surface_gamma = fem.Function(compat.scalar_space(self.mesh, 1), name="surface_tension")
+        return self.surface_gamma, sum((ds(t) for t in tags[1:]), ds(tags[0]))
+
+    def update_surface_tension(self) -> None:
+        """γ_i = γ0_i C_i at the free-surface nodes of the current mesh (seed 000; see
+        ``geometry.curvature``): explicit in the step, from the geometry of Ω^{n+1}."""
+        if self.surface_gamma is None:
+            return
+        points, gamma = surface_tension_nodes(self.tagged, self._surface_tags,
+                                              self.params.surface_tension,
+                                              self.params.surface_tension_extent)
+        set_nodal_values(self.surface_gamma, points, gamma)
 
     # ------------------------------------------------------------------ state access
     def set_velocity(self, profile) -> None:
