@@ -107,6 +107,14 @@ DAM_BREAK = ("geometry.flank_angle=90", "geometry.height=0.1", "geometry.base_le
              "geometry.bed_angle=22", "boundary.bed_friction_angle=21", "time.end_time=0.5")
 
 
+#: The a = 2 column with seed 004's μ(I) fit (μ_s = 0.32 = tan 17.74°, μ_2 = 0.60 = tan 30.96°,
+#: I0 = 0.4; d = 0.7 mm, the config default) in the 2D material, the bed at μ_s: the SH side then
+#: takes μ(Ī) as its basal law (``model.basal_friction: auto`` → rheology).
+MU_I = ("material.rheology=mu_i", "material.friction_angle=17.74", "material.friction_angle_2=30.96",
+        "material.inertial_number_I0=0.4", "boundary.bed_friction_angle=17.74")
+MU_I_ASPECT_RATIOS = (1.0, 2.0, 4.0)
+
+
 def full_plan() -> list[Case]:
     cases = [Case("rigid", "rigid", 0.0, "configs/rigid.yaml")]
     cases += [Case(f"rigid_slope{theta:g}", "slope", theta, "configs/rigid.yaml",
@@ -118,6 +126,9 @@ def full_plan() -> list[Case]:
         cases.append(Case(f"column_a{a:g}", "column", a, "configs/column.yaml", over))
     cases.append(Case("dam_break_slope22", "dam_break", 22.0, "configs/rigid.yaml",
                       DAM_BREAK + ("geometry.mesh_size=0.02",), sh_x_max=2.5))
+    for a in MU_I_ASPECT_RATIOS:
+        height = () if a == 2.0 else (f"geometry.height={round(a * L0_COLUMN, 6):g}",)
+        cases.append(Case(f"column_a{a:g}_mui", "mu_i", a, "configs/column.yaml", MU_I + height))
     cases.append(Case("column_a2_mesh5mm", "resolution", 2.0, "configs/column.yaml",
                       ("geometry.mesh_size=0.005",)))
     cases.append(Case("column_a2_mesh2cm", "resolution", 2.0, "configs/column.yaml",
@@ -456,6 +467,11 @@ def plot(rows: list[dict], series: dict, path: Path) -> None:
             label="runout ΔL, column (bottom axis: a)")
     ax.plot([r["param"] for r in col], [100 * r["height_diff"] for r in col], "s-", color=colors[1],
             label="H_f, column (bottom axis: a)")
+    mui = sorted((r for r in rows if r["group"] == "mu_i"), key=lambda r: r["param"])
+    ax.plot([r["param"] for r in mui], [100 * r["runout_diff"] for r in mui], "o:", color=colors[4],
+            label="runout ΔL, column μ(I) (bottom axis: a)")
+    ax.plot([r["param"] for r in mui], [100 * r["height_diff"] for r in mui], "s:", color=colors[5],
+            label="H_f, column μ(I) (bottom axis: a)")
     ax.set_xlabel("column aspect ratio a = H0/L0")
     top = ax.twiny()
     slope = sorted((r for r in rows if r["group"] in ("rigid", "slope")), key=lambda r: r["param"])
