@@ -137,9 +137,12 @@ def full_plan() -> list[Case]:
 
 
 def quick_plan() -> list[Case]:
-    """One tiny 2D run (3 cm cells, 0.1 s) and its Savage–Hutter twin: for the test suite."""
+    """For the test suite: two tiny 2D runs (3 cm cells) and their Savage–Hutter twins — the
+    Coulomb column to 0.1 s, and the μ(I) column to rest (measured 9 s CPU)."""
     return [Case("column_a2_quick", "column", 2.0, "configs/column.yaml",
-                 ("geometry.mesh_size=0.03", "time.end_time=0.1"))]
+                 ("geometry.mesh_size=0.03", "time.end_time=0.1")),
+            Case("column_a2_mui_quick", "mu_i", 2.0, "configs/column.yaml",
+                 MU_I + ("geometry.mesh_size=0.03",))]
 
 
 # ----------------------------------------------------------------------------- config → SH
@@ -535,7 +538,7 @@ def main(argv=None) -> int:
     """Run the plan (skipping cases already in the CSV), write the CSVs, the chart, the table."""
     parser = argparse.ArgumentParser(prog="python -m dpcollapse.validation.ladder")
     parser.add_argument("--quick", action="store_true",
-                        help="one tiny case (3 cm 2D mesh, 0.1 s; SH Δx 4 mm): the test")
+                        help="two tiny cases (3 cm 2D cells; SH Δx 4 mm): the test")
     parser.add_argument("--out", default="docs", help="folder of ladder.csv, ladder_series.csv, ladder.png")
     parser.add_argument("--work", default="runs/ladder", help="folder of the 2D run directories")
     parser.add_argument("--only", nargs="*", default=None, help="run only these cases")
