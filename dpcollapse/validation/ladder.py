@@ -107,6 +107,14 @@ DAM_BREAK = ("geometry.flank_angle=90", "geometry.height=0.1", "geometry.base_le
              "geometry.bed_angle=22", "boundary.bed_friction_angle=21", "time.end_time=0.5")
 
 
+#: The a = 2 column with seed 004's μ(I) fit (μ_s = 0.32 = tan 17.74°, μ_2 = 0.60 = tan 30.96°,
+#: I0 = 0.4; d = 0.7 mm, the config default) in the 2D material, the bed at μ_s: the SH side then
+#: takes μ(Ī) as its basal law (``model.basal_friction: auto`` → rheology).
+MU_I = ("material.rheology=mu_i", "material.friction_angle=17.74", "material.friction_angle_2=30.96",
+        "material.inertial_number_I0=0.4", "boundary.bed_friction_angle=17.74")
+MU_I_ASPECT_RATIOS = (1.0, 2.0, 4.0)
+
+
 def full_plan() -> list[Case]:
     cases = [Case("rigid", "rigid", 0.0, "configs/rigid.yaml")]
     cases += [Case(f"rigid_slope{theta:g}", "slope", theta, "configs/rigid.yaml",
@@ -118,6 +126,9 @@ def full_plan() -> list[Case]:
         cases.append(Case(f"column_a{a:g}", "column", a, "configs/column.yaml", over))
     cases.append(Case("dam_break_slope22", "dam_break", 22.0, "configs/rigid.yaml",
                       DAM_BREAK + ("geometry.mesh_size=0.02",), sh_x_max=2.5))
+    for a in MU_I_ASPECT_RATIOS:
+        height = () if a == 2.0 else (f"geometry.height={round(a * L0_COLUMN, 6):g}",)
+        cases.append(Case(f"column_a{a:g}_mui", "mu_i", a, "configs/column.yaml", MU_I + height))
     cases.append(Case("column_a2_mesh5mm", "resolution", 2.0, "configs/column.yaml",
                       ("geometry.mesh_size=0.005",)))
     cases.append(Case("column_a2_mesh2cm", "resolution", 2.0, "configs/column.yaml",
@@ -126,9 +137,12 @@ def full_plan() -> list[Case]:
 
 
 def quick_plan() -> list[Case]:
-    """One tiny 2D run (3 cm cells, 0.1 s) and its Savage–Hutter twin: for the test suite."""
+    """For the test suite: two tiny 2D runs (3 cm cells) and their Savage–Hutter twins — the
+    Coulomb column to 0.1 s, and the μ(I) column to rest (measured 9 s CPU)."""
     return [Case("column_a2_quick", "column", 2.0, "configs/column.yaml",
-                 ("geometry.mesh_size=0.03", "time.end_time=0.1"))]
+                 ("geometry.mesh_size=0.03", "time.end_time=0.1")),
+            Case("column_a2_mui_quick", "mu_i", 2.0, "configs/column.yaml",
+                 MU_I + ("geometry.mesh_size=0.03",))]
 
 
 # ----------------------------------------------------------------------------- config → SH
@@ -456,6 +470,11 @@ def plot(rows: list[dict], series: dict, path: Path) -> None:
             label="runout ΔL, column (bottom axis: a)")
     ax.plot([r["param"] for r in col], [100 * r["height_diff"] for r in col], "s-", color=colors[1],
             label="H_f, column (bottom axis: a)")
+    mui = sorted((r for r in rows if r["group"] == "mu_i"), key=lambda r: r["param"])
+    ax.plot([r["param"] for r in mui], [100 * r["runout_diff"] for r in mui], "o:", color=colors[4],
+            label="runout ΔL, column μ(I) (bottom axis: a)")
+    ax.plot([r["param"] for r in mui], [100 * r["height_diff"] for r in mui], "s:", color=colors[5],
+            label="H_f, column μ(I) (bottom axis: a)")
     ax.set_xlabel("column aspect ratio a = H0/L0")
     top = ax.twiny()
     slope = sorted((r for r in rows if r["group"] in ("rigid", "slope")), key=lambda r: r["param"])
@@ -519,7 +538,7 @@ def main(argv=None) -> int:
     """Run the plan (skipping cases already in the CSV), write the CSVs, the chart, the table."""
     parser = argparse.ArgumentParser(prog="python -m dpcollapse.validation.ladder")
     parser.add_argument("--quick", action="store_true",
-                        help="one tiny case (3 cm 2D mesh, 0.1 s; SH Δx 4 mm): the test")
+                        help="two tiny cases (3 cm 2D cells; SH Δx 4 mm): the test")
     parser.add_argument("--out", default="docs", help="folder of ladder.csv, ladder_series.csv, ladder.png")
     parser.add_argument("--work", default="runs/ladder", help="folder of the 2D run directories")
     parser.add_argument("--only", nargs="*", default=None, help="run only these cases")

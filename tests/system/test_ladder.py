@@ -1,6 +1,7 @@
-"""The model ladder (dpcollapse.validation.ladder) in its --quick form: one tiny 2D column run
-(3 cm cells, to 0.1 s) and its Savage–Hutter twin; the table's structure, mass conservation of
-both rungs, the cost ratio, the early front, and that a second call reuses the CSV."""
+"""The model ladder (dpcollapse.validation.ladder) in its --quick form: two tiny 2D column runs
+(3 cm cells: Coulomb to 0.1 s, μ(I) to rest) and their Savage–Hutter twins; the table's
+structure, mass conservation of both rungs, the cost ratio, the early front, the μ(I) runout
+ordering, and that a second call reuses the CSV."""
 
 import csv
 import math
@@ -15,9 +16,10 @@ def test_ladder_quick(tmp_path):
         reader = csv.DictReader(fh)
         assert reader.fieldnames == ladder.COLUMNS
         rows = list(reader)
-    assert [r["case"] for r in rows] == ["column_a2_quick"]
-    r = {k: (float(v) if k not in ("case", "group", "config", "overrides", "status_2d",
-                                     "status_sh", "within_5pct", "sh_friction") else v) for k, v in rows[0].items()}
+    assert [r["case"] for r in rows] == ["column_a2_quick", "column_a2_mui_quick"]
+    text_keys = ("case", "group", "config", "overrides", "status_2d", "status_sh", "within_5pct",
+                 "sh_friction")
+    r, mui = ({k: (v if k in text_keys else float(v)) for k, v in row.items()} for row in rows)
     assert r["status_2d"] == "end_time" and r["status_sh"] == "end_time"
     assert math.isclose(r["t_end_2d"], 0.1) and math.isclose(r["t_end_sh"], 0.1)
     # mass: the 2D domain keeps its area (ALE, measured −7e-4 at 3 cm), SH to round-off
@@ -33,7 +35,16 @@ def test_ladder_quick(tmp_path):
     assert r["runout_sh"] > 2 * r["runout_2d"] > 0
     assert (out / "ladder.png").stat().st_size > 10_000
     text = ladder.table(ladder.read_rows(out / "ladder.csv"))
-    assert text.count("\n") == 2 and "column_a2_quick" in text
+    assert text.count("\n") == 3 and "column_a2_quick" in text
+
+    # μ(I) in both rungs (seed 004's fit), to rest: both conserve mass, the depth-averaged runout
+    # is the shorter one — the seeds' ordering 2D > SH — by about 9 % (measured −9.4 % here,
+    # −9.2 % with 1 cm cells and Δx = 1 mm, docs/ladder.md)
+    assert mui["status_2d"] == "at_rest" and mui["status_sh"] == "at_rest"
+    assert mui["sh_friction"].startswith("rheology MuIFriction")
+    assert abs(mui["area_drift_2d"]) < 1e-2 and mui["mass_error_sh"] < 1e-12
+    assert -0.2 < mui["runout_diff"] < 0 and mui["runout_sh"] < mui["runout_2d"]
+    assert mui["cost_ratio_cpu"] > 1
 
     # a second call finds the case in the CSV and does not run it again
     (work / "column_a2_quick" / "run.json").unlink()
