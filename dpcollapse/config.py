@@ -362,6 +362,8 @@ class NumericsConfig(_Section):
         "Newton (PETSc SNES, exact Jacobian, LU; same stop test on the velocity updates)")
     newton_line_search: Literal["bt", "basic", "l2", "cp", "nleqerr"] = _f(
         "bt", "", "Newton: SNES line search (bt backtracking, basic = full steps)")
+    newton_max_iterations: Count = _f(
+        25, "", "Newton: most iterations per time step (per continuation stage)", ge=1)
     newton_picard_start: Count = _f(
         0, "", "Newton: Picard iterations before the first Newton iteration of a step", ge=0, le=100)
     newton_epsilon_start: Number | None = _f(

@@ -40,6 +40,33 @@ def residual_terms(law, *, state, test, **picard_arguments) -> dict:
     return terms
 
 
+def with_fixed_quadrature(form):
+    """``form`` with the quadrature degree UFL estimates for it written into every integral
+    that has none: the largest estimate over the integrals of one kind and subdomain, as
+    the form compiler would take for their sum (so the residual is integrated as the Picard
+    system is). Its Jacobian then uses the same rule; left to its own estimate, the
+    Jacobian's integrand gets a different degree and is not the derivative of the
+    integrated residual (measured: a constant 0.4 % mismatch against central differences)."""
+    from ufl.algorithms.apply_algebra_lowering import apply_algebra_lowering
+    from ufl.algorithms.apply_derivatives import apply_derivatives
+    from ufl.algorithms.estimate_degrees import estimate_total_polynomial_degree
+
+    degrees: dict = {}
+    for itg in form.integrals():
+        if "quadrature_degree" not in itg.metadata():
+            integrand = apply_derivatives(apply_algebra_lowering(itg.integrand()))
+            key = (itg.integral_type(), itg.subdomain_id())
+            degrees[key] = max(degrees.get(key, 0), estimate_total_polynomial_degree(integrand, 1))
+    fixed = []
+    for itg in form.integrals():
+        if "quadrature_degree" not in itg.metadata():
+            degree = degrees[(itg.integral_type(), itg.subdomain_id())]
+            itg = itg.reconstruct(metadata={**itg.metadata(), "quadrature_degree": degree})
+        fixed.append(itg)
+    return ufl.Form(fixed)
+
+
 def jacobian(residual, U, dU):
-    """J(U)[δU, V] = d/dτ F(U + τ δU; V) at τ = 0 (``ufl.derivative``; δU a TrialFunction)."""
+    """J(U)[δU, V] = d/dτ F(U + τ δU; V) at τ = 0 (``ufl.derivative``; δU a TrialFunction;
+    give F with its quadrature fixed, ``with_fixed_quadrature``)."""
     return ufl.derivative(residual, U, dU)

@@ -8,7 +8,8 @@ iteration solves J δ = −F by LU (``preonly``, MUMPS or SuperLU_dist) — one 
 per Jacobian — and takes x ← x + λ δ with λ from the SNES line search ``line_search``
 (basic: λ = 1; bt: backtracking on ½‖F‖²; l2, cp, nleqerr: PETSc's secant/critical-point
 and error-oriented variants). The stopping test is the caller's ``converged(iteration)``
-(called after each update with the iterate loaded into the forms' Function).
+(called after each update with the iterate loaded into the forms' Function; ``direction``
+holds the full, undamped Newton step of that iteration, recorded before the line search).
 
 Counters kept for benchmarks (as ``solvers.linear.DirectSolver``): ``factorizations``
 (Jacobian evaluations), ``solves``, ``krylov_iterations`` (0), ``seconds``
@@ -48,6 +49,7 @@ class SnesNewton:
         snes.setFunction(self._residual, self._f)
         snes.setJacobian(self._jacobian, system.A)
         snes.setConvergenceTest(self._test)
+        snes.setLineSearchPreCheck(self._precheck)
         snes.setTolerances(max_it=max_iterations)
         snes.setErrorIfNotConverged(False)
         ksp = snes.getKSP()
@@ -68,6 +70,7 @@ class SnesNewton:
         self.krylov_iterations = 0
         self.seconds = {"factorization": 0.0, "solve": 0.0}
         self.history: list[tuple[int, float]] = []
+        self.direction = None   # local values of the last full Newton step δ (before damping)
 
     # ------------------------------------------------------------------ callbacks
     def _residual(self, snes, x, f) -> None:
@@ -80,6 +83,10 @@ class SnesNewton:
         self.system.load(x, self.state)
         self.system.assemble_matrix()
         self.factorizations += 1
+
+    def _precheck(self, x, y, *args):
+        self.direction = y.array_r.copy()
+        return False   # y unchanged
 
     def _test(self, snes, iteration, norms) -> int:
         _, _, fnorm = norms

@@ -20,7 +20,7 @@ import ufl
 from dolfinx import fem
 
 from dpcollapse import compat
-from dpcollapse.forms.newton import jacobian, residual_terms
+from dpcollapse.forms.newton import jacobian, residual_terms, with_fixed_quadrature
 from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.models.stokes.regularized import PicardSettings, RegularizedFlow, picard_settings
 from dpcollapse.models.stokes.state import FlowParameters, StepReport, contraction, distance_to_limit
@@ -31,14 +31,15 @@ from dpcollapse.solvers.newton import SnesNewton, reason_name
 class NewtonSettings:
     picard: PicardSettings
     line_search: str = "bt"
+    max_iterations: int = 25            # per continuation stage
     picard_start: int = 0               # Picard iterations before Newton
     epsilon_start: float | None = None  # ε-continuation from here down to ε (×0.1 per stage)
 
 
 def newton_settings(cfg) -> NewtonSettings:
     n = cfg.numerics
-    return NewtonSettings(picard_settings(cfg), n.newton_line_search, n.newton_picard_start,
-                          n.newton_epsilon_start)
+    return NewtonSettings(picard_settings(cfg), n.newton_line_search, n.newton_max_iterations,
+                          n.newton_picard_start, n.newton_epsilon_start)
 
 
 def continuation(epsilon: float, start: float | None) -> list[float]:
@@ -82,12 +83,13 @@ class NewtonFlow(RegularizedFlow):
             dx=dx, ds=ds,
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
             side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None)
-        F = sum(self.residual_terms.values())
+        F = with_fixed_quadrature(sum(self.residual_terms.values()))
+        self.residual = F
         J = jacobian(F, U, ufl.TrialFunction(self.W))
         self.newton_system = self._make_system(J, -F)
         package = "mumps" if s.linear_solver == "iterative" else s.linear_solver
         self.snes = SnesNewton(self.comm, self.newton_system, U, self._newton_converged, package,
-                               self.newton.line_search, s.max_iterations)
+                               self.newton.line_search, self.newton.max_iterations)
 
     # ------------------------------------------------------------------ the step
     def _picard_iterations(self, count: int) -> None:
@@ -100,16 +102,20 @@ class NewtonFlow(RegularizedFlow):
             self.iterate.x.array[:] = self.solution.x.array
 
     def _newton_converged(self, iteration: int) -> bool:
+        """The Picard stop applied to the Newton update, and only after a full step: the
+        update must be the undamped Newton step δ (λ ≥ 0.9), so that a line search that
+        creeps with λ ≪ 1 far from the solution is not taken for convergence."""
         new = self.velocity_values(self.iterate)
         change = self.rms(new - self._previous_velocity)
+        full = self.rms(self.snes.direction[self._owned_velocity])
         rho = contraction(change, self._previous_change) if iteration > 1 else 0.0
-        error = distance_to_limit(change, rho)
+        error = max(distance_to_limit(change, rho), full)
         self._previous_velocity = new
         self._previous_change = change
         scale = self.rms(new)
         self._error = error / scale if scale > 0 else error
         s = self.settings
-        return bool(error <= s.rtol * scale + s.atol)
+        return bool(change >= 0.9 * full and error <= s.rtol * scale + s.atol)
 
     def solve_step(self, dt: float) -> StepReport:
         """Newton (after the optional Picard start and ε stages) for one step of size ``dt``."""
