@@ -366,6 +366,9 @@ class NumericsConfig(_Section):
         25, "", "Newton: most iterations per time step (per continuation stage)", ge=1)
     newton_picard_start: Count = _f(
         0, "", "Newton: Picard iterations before the first Newton iteration of a step", ge=0, le=100)
+    newton_fallback: bool = Field(
+        True, strict=True, description="Newton: a time step Newton fails is redone by the "
+        "Picard fixed point (with Anderson) before the step is halved")
     newton_epsilon_start: Number | None = _f(
         None, "1/s", "Newton: epsilon-continuation within a step, from this down to "
         "numerics.epsilon by factors of 10 (null: none)", gt=0)

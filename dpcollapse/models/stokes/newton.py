@@ -6,6 +6,8 @@ SNES with the exact Jacobian from ``ufl.derivative`` and LU (``solvers.newton``)
 Newton, optionally
 - ``newton_picard_start`` Picard iterations (the secant-viscosity system, no Anderson),
 - ε-continuation: Newton solves at ε_start, ε_start/10, … down to ε, each from the last.
+A step Newton fails (line search, iteration cap, LU) is redone from its start by the
+Picard fixed point (``newton_fallback``, the hybrid switch) before the loop halves Δt.
 The stop is the Picard one applied to the Newton updates: the estimated error
 ‖Δu‖·max(1, ρ/(1 − ρ)) (ρ = ‖Δu_k‖/‖Δu_{k−1}‖, RMS over velocity dofs) ≤ rtol‖u‖ + atol.
 """
@@ -34,12 +36,13 @@ class NewtonSettings:
     max_iterations: int = 25            # per continuation stage
     picard_start: int = 0               # Picard iterations before Newton
     epsilon_start: float | None = None  # ε-continuation from here down to ε (×0.1 per stage)
+    fallback: bool = True               # a step Newton fails is redone by Picard (+ Anderson)
 
 
 def newton_settings(cfg) -> NewtonSettings:
     n = cfg.numerics
     return NewtonSettings(picard_settings(cfg), n.newton_line_search, n.newton_max_iterations,
-                          n.newton_picard_start, n.newton_epsilon_start)
+                          n.newton_picard_start, n.newton_epsilon_start, n.newton_fallback)
 
 
 def continuation(epsilon: float, start: float | None) -> list[float]:
@@ -64,6 +67,7 @@ class NewtonFlow(RegularizedFlow):
         super().__init__(tagged, params, settings.picard)
         self._build_newton()
         self.residual_history: list[tuple[float, int, float]] = []  # (ε, iteration, ‖F‖)
+        self.fallbacks = 0   # steps redone by Picard
 
     def _build_newton(self) -> None:
         mesh, p = self.mesh, self.params
@@ -118,6 +122,19 @@ class NewtonFlow(RegularizedFlow):
         return bool(change >= 0.9 * full and error <= s.rtol * scale + s.atol)
 
     def solve_step(self, dt: float) -> StepReport:
+        """Newton (after the optional Picard start and ε stages) for one step of size ``dt``;
+        on failure, with ``fallback``, the Picard step from the same start."""
+        report = self._newton_step(dt)
+        if report.converged or not self.newton.fallback:
+            return report
+        self.fallbacks += 1
+        picard = super().solve_step(dt)
+        picard.iterations += report.iterations
+        if not picard.converged:
+            picard.message = f"{report.message}; Picard fallback: {picard.message}"
+        return picard
+
+    def _newton_step(self, dt: float) -> StepReport:
         """Newton (after the optional Picard start and ε stages) for one step of size ``dt``."""
         s, ns = self.settings, self.newton
         self.dt.value = dt
