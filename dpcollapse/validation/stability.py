@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from dpcollapse.config import load_config, with_overrides
-from dpcollapse.errors import DpcollapseError
+from dpcollapse.errors import DpcollapseError, Interrupted
 
 #: numerics overrides of each method.
 METHODS = {
@@ -155,6 +155,8 @@ def run_cell(base, scene: str, cell: Cell, plan: Plan, out: Path, reference=None
         cell.cls = "too_slow" if watch.too_slow else ""
         if watch.too_slow:
             cell.reason = f"CPU time over {plan.cap:g} s at t = {sim.state.t:.3f} s"
+    except Interrupted:
+        raise                      # Ctrl-C / SIGTERM ends the whole map, not one cell
     except DpcollapseError as exc:
         cell.cls, cell.exit_code = "failed", exc.exit_code
         cell.reason = " ".join(str(exc).split())[:160]
