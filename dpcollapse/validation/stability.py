@@ -261,6 +261,7 @@ def plot(path: Path, cells: list[Cell], plan: Plan, scene: str) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
     from matplotlib.lines import Line2D
 
     methods = [m for m in plan.methods if any(c.method == m for c in cells)]
@@ -282,6 +283,9 @@ def plot(path: Path, cells: list[Cell], plan: Plan, scene: str) -> None:
         ax.set_ylim(min(plan.dts) * 1e3 / 1.6, max(plan.dts) * 1e3 * 1.6)
         ax.set_title(method + (" (no ε: same in every column)" if method == "augmented_lagrangian" else ""),
                      fontsize=9)
+        ax.set_yticks([d * 1e3 for d in plan.dts])
+        ax.set_yticklabels([f"{d * 1e3:g}" for d in plan.dts])
+        ax.yaxis.set_minor_locator(matplotlib.ticker.NullLocator())
         ax.set_xlabel("ε [1/s]")
         ax.grid(alpha=0.3, which="major")
     axes[0, 0].set_ylabel("Δt [ms]")
