@@ -254,6 +254,18 @@ MARKS = {"accurate": ("o", "tab:green"), "wrong": ("^", "tab:orange"), "failed":
          "too_slow": ("D", "tab:gray")}
 
 
+def read_csv(path: Path) -> list[Cell]:
+    """The cells of a ``stability_SCENE.csv`` (e.g. to redraw the map of a partial run)."""
+    cells = []
+    with Path(path).open() as f:
+        for row in csv.DictReader(f):
+            cells.append(Cell(row["scene"], row["method"], float(row["epsilon"]), float(row["dt"]),
+                              float(row["mesh_size"]), row["class"], int(row["exit_code"]), row["reason"],
+                              int(row["steps"]), int(row["iterations"]), int(row["factorizations"]),
+                              float(row["wall_time"]), float(row["error"])))
+    return cells
+
+
 def plot(path: Path, cells: list[Cell], plan: Plan, scene: str) -> None:
     """One panel per method: Δt (y) against ε (x), a mark per class, ΔX as marker size (and
     a small sideways offset, finest on the left)."""
