@@ -202,7 +202,7 @@ def stability_map(scene: str, config: Path, out: Path, quick: bool = False, plan
 
         reference = reference_solution(base, max(plan.end_time, max(plan.times)), plan.times)
     else:
-        ref_cell = Cell(scene, "augmented_lagrangian", 0.0, min(plan.dts), min(plan.mesh_sizes))
+        ref_cell = Cell(scene, "augmented_lagrangian", 1e-6, min(plan.dts), min(plan.mesh_sizes))
         ref_cell, values = run_cell(base, scene, ref_cell, replace(plan, cap=math.inf), out,
                                     extra=["numerics.nonlinear_rtol=1e-5"])
         if ref_cell.cls == "failed" or any(t not in values for t in plan.times):
@@ -284,7 +284,7 @@ def plot(path: Path, cells: list[Cell], plan: Plan, scene: str) -> None:
         for c in (c for c in cells if c.method == method):
             marker, color = MARKS[c.cls]
             k = sizes.index(c.mesh_size)
-            offset = 1.35 ** (k - (len(sizes) - 1) / 2)
+            offset = 1.8 ** (k - (len(sizes) - 1) / 2)
             xs = eps_all if math.isnan(c.epsilon) else [c.epsilon]
             for x in xs:
                 ax.scatter([x * offset], [c.dt * 1e3], marker=marker, color=color,
