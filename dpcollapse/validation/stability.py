@@ -14,8 +14,8 @@ a scene with a reference and classifies every run:
 Scenes: ``plug`` (``configs/plug.yaml``; error = RMS over the compare times ≤ end time of
 the relative L² error of u_x against the 1D non-smooth reference ``reference.plug1d``) and
 ``rigid`` (``configs/rigid.yaml``; error = the largest difference of the front position at
-the compare times against a reference run: the finest ΔX and Δt of the plan, augmented
-Lagrangian at rtol 1e-5, run first). The augmented Lagrangian has no ε: it is run once
+the compare times, divided by the front's travel, against a reference run: the finest ΔX
+and Δt of the plan, augmented Lagrangian at the config's tolerance, run first). The augmented Lagrangian has no ε: it is run once
 per (Δt, ΔX) and its class is drawn in every ε column.
 
 Writes ``stability_SCENE.csv`` and ``stability_SCENE.png`` (one panel per method, Δt
