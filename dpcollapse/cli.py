@@ -13,6 +13,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import logging  # noqa: E402
+import math  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any, Sequence  # noqa: E402
@@ -376,6 +377,68 @@ def bench(cases: str | None, quick: bool, out: Path, nprocs: int, growth: bool,
     run = _lazy("dpcollapse.bench", "run_bench")
     run(out, cases=cases, quick=quick, nprocs=nprocs, growth=growth, configs=configs,
         result_json=result_json, echo=click.echo)
+    return 0
+
+
+def _number_list(option: str, text: str | None) -> list[float] | None:
+    """--epsilons 1e-2,1e-6 → [0.01, 1e-06]; a bad entry is a one-line input error."""
+    if text is None:
+        return None
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        raise ConfigError(f"{option} = {text}: must be comma-separated positive numbers") from None
+    if not values or not all(v > 0 and math.isfinite(v) for v in values):
+        raise ConfigError(f"{option} = {text}: must be comma-separated positive numbers")
+    return values
+
+
+@cli.command()
+@click.argument("scene", type=click.Choice(["plug", "rigid"]))
+@click.option("--quick", is_flag=True, help="A few short coarse cells (checks the harness, < 1 min).")
+@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Base config (default: configs/plug.yaml or configs/rigid.yaml).")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Output directory (default: runs/stability_SCENE).")
+@click.option("--methods", default=None, metavar="M,...",
+              help="Subset of picard, picard+anderson, newton, augmented_lagrangian.")
+@click.option("--epsilons", default=None, metavar="E,...", help="epsilon values [1/s] (replace the plan's).")
+@click.option("--dts", default=None, metavar="DT,...", help="time steps [s] (replace the plan's).")
+@click.option("--mesh-sizes", default=None, metavar="DX,...", help="mesh sizes [m] (replace the plan's).")
+@click.option("--end-time", type=float, default=None, help="End time of every run [s].")
+@click.option("--cap", type=float, default=None, help="CPU seconds per run before it counts as too slow.")
+def stability(scene: str, quick: bool, config: Path | None, out: Path | None, methods: str | None,
+              epsilons: str | None, dts: str | None, mesh_sizes: str | None, end_time: float | None,
+              cap: float | None) -> int:
+    """Map where each method works: method x epsilon x dt x dx, every run classified
+    (accurate / wrong / failed with exit code / too slow); CSV + PNG."""
+    config = config or Path("configs/plug.yaml" if scene == "plug" else "configs/rigid.yaml")
+    out = out or Path(f"runs/stability_{scene}")
+    if not config.is_file():
+        raise ConfigError(f"--config = {config}: file not found")
+    module = "dpcollapse.validation.stability"
+    plan = _lazy(module, "PLANS")[(scene, quick)]
+    known = list(_lazy(module, "METHODS"))
+    chosen = plan.methods if methods is None else [m.strip() for m in methods.split(",") if m.strip()]
+    bad = [m for m in chosen if m not in known]
+    if bad or not chosen:
+        raise ConfigError(f"--methods = {methods}: must be a subset of {', '.join(known)}")
+    for name, value in (("--end-time", end_time), ("--cap", cap)):
+        if value is not None and not (value > 0 and math.isfinite(value)):
+            raise ConfigError(f"{name} = {value}: must be > 0")
+    import dataclasses
+
+    plan = dataclasses.replace(
+        plan, methods=chosen,
+        epsilons=_number_list("--epsilons", epsilons) or plan.epsilons,
+        dts=_number_list("--dts", dts) or plan.dts,
+        mesh_sizes=_number_list("--mesh-sizes", mesh_sizes) or plan.mesh_sizes,
+        end_time=end_time or plan.end_time, cap=cap or plan.cap)
+    plan.times = [t for t in plan.times if t <= plan.end_time + 1e-9]   # empty: the end time
+    _setup_logging(quiet=True)
+    echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
+    _lazy(module, "stability_map")(scene, config, out, quick=quick, plan=plan, log=echo)
+    echo(f"wrote {out / f'stability_{scene}.csv'} and {out / f'stability_{scene}.png'}")
     return 0
 
 

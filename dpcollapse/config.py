@@ -414,6 +414,21 @@ class NumericsConfig(_Section):
     )
     nonlinear_atol: Number = _f(1.0e-7, "m/s", "Fixed-point stop, absolute part", ge=0)
     max_iterations: Count = _f(100, "", "Most fixed-point iterations per time step", ge=1)
+    nonlinear_solver: Literal["picard", "newton"] = _f(
+        "picard", "", "Regularized method: Picard fixed point (secant viscosity, Anderson) or "
+        "Newton (PETSc SNES, exact Jacobian, LU; same stop test on the velocity updates)")
+    newton_line_search: Literal["bt", "basic", "l2", "cp", "nleqerr"] = _f(
+        "bt", "", "Newton: SNES line search (bt backtracking, basic = full steps)")
+    newton_max_iterations: Count = _f(
+        25, "", "Newton: most iterations per time step (per continuation stage)", ge=1)
+    newton_picard_start: Count = _f(
+        0, "", "Newton: Picard iterations before the first Newton iteration of a step", ge=0, le=100)
+    newton_fallback: bool = Field(
+        True, strict=True, description="Newton: a time step Newton fails is redone by the "
+        "Picard fixed point (with Anderson) before the step is halved")
+    newton_epsilon_start: Number | None = _f(
+        None, "1/s", "Newton: epsilon-continuation within a step, from this down to "
+        "numerics.epsilon by factors of 10 (null: none)", gt=0)
     reuse_factorization: bool = _f(
         False, "", "Factorize once per time step; later fixed-point iterates solve with GMRES "
         "preconditioned by that LU (experimental)")
@@ -447,6 +462,12 @@ class NumericsConfig(_Section):
         if self.linear_solver == "iterative" and self.method != "regularized":
             raise ConfigError(f"numerics.linear_solver = 'iterative': only with numerics.method "
                               f"= regularized (not {self.method}); use mumps or superlu_dist")
+        if self.nonlinear_solver == "newton" and self.method != "regularized":
+            raise ConfigError(f"numerics.nonlinear_solver = 'newton': only with numerics.method "
+                              f"= regularized (not {self.method})")
+        if self.nonlinear_solver == "newton" and self.linear_solver == "iterative":
+            raise ConfigError("numerics.nonlinear_solver = 'newton': needs a direct "
+                              "numerics.linear_solver (mumps or superlu_dist), not iterative")
         if self.linear_solver == "iterative" and self.reuse_factorization:
             raise ConfigError("numerics.reuse_factorization = true: needs a direct "
                               "numerics.linear_solver (mumps or superlu_dist), not iterative")

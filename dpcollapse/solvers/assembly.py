@@ -56,6 +56,16 @@ class LinearSystem:
         solver.solve(self.b if b is None else b, compat.petsc_vec(target))
         target.x.scatter_forward()
 
+    def load(self, x: PETSc.Vec, target) -> None:
+        """Function ``target`` ← a vector ``x`` of this system's layout (owned values, ghosts
+        updated): how a nonlinear solver hands its iterate to the forms."""
+        compat.petsc_vec(target).array_w[:] = x.array_r
+        target.x.scatter_forward()
+
+    def store(self, source, x: PETSc.Vec) -> None:
+        """Vector ``x`` of this system's layout ← Function ``source`` (owned values)."""
+        x.array_w[:] = compat.petsc_vec(source).array_r
+
     def destroy(self) -> None:
         self.A.destroy()
         self.b.destroy()

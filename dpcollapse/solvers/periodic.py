@@ -205,6 +205,23 @@ class PeriodicLinearSystem:
         target.x.array[:n] = self.x.x.array[:n]
         target.x.scatter_forward()
 
+    def load(self, x: PETSc.Vec, target: fem.Function) -> None:
+        """Function ``target`` on V ← a reduced vector ``x`` (the owned masters), the slaves
+        back-substituted from their masters: how a nonlinear solver hands its iterate to
+        the forms (its slave entries are not used)."""
+        n = self._owned
+        compat.petsc_vec(self.x).array_w[:n] = x.array_r[:n]
+        self.x.x.scatter_forward()
+        compat.mpc_homogenize(self.mpc, self.x)
+        compat.mpc_backsubstitution(self.mpc, self.x)
+        target.x.array[:n] = self.x.x.array[:n]
+        target.x.scatter_forward()
+
+    def store(self, source: fem.Function, x: PETSc.Vec) -> None:
+        """Reduced vector ``x`` ← Function ``source`` on V (owned values; same owned layout)."""
+        n = self._owned
+        x.array_w[:n] = source.x.array[:n]
+
     def destroy(self) -> None:
         self.A.destroy()
         self.b.destroy()

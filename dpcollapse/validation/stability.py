@@ -1,0 +1,314 @@
+"""Where each method works: ``dpcollapse stability SCENE [--quick]``.
+
+Sweeps method (Picard, Picard + Anderson, Newton, augmented Lagrangian) × ε × Δt × ΔX on
+a scene with a reference and classifies every run:
+
+* ``accurate``  — converged, error ≤ ``tolerance`` against the reference;
+* ``wrong``     — converged, error > ``tolerance`` (regularization error at large ε, the
+  fixed-point tolerance floor, a coarse Δt or ΔX);
+* ``failed``    — the run ended with an error: its exit code and the reason (3: no
+  convergence at time.dt_min; 4: mesh degenerate or energy guard);
+* ``too_slow``  — stopped at the cost cap: CPU time of the run > ``cap`` seconds (process
+  time, so that the class does not depend on how many other jobs share the machine).
+
+Scenes: ``plug`` (``configs/plug.yaml``; error = RMS over the compare times ≤ end time of
+the relative L² error of u_x against the 1D non-smooth reference ``reference.plug1d``) and
+``rigid`` (``configs/rigid.yaml``; error = the largest difference of the front position at
+the compare times, divided by the front's travel, against a reference run: the finest ΔX
+and Δt of the plan, augmented Lagrangian at the config's tolerance, run first). The augmented Lagrangian has no ε: it is run once
+per (Δt, ΔX) and its class is drawn in every ε column.
+
+Writes ``stability_SCENE.csv`` and ``stability_SCENE.png`` (one panel per method, Δt
+against ε, a mark per class, ΔX as marker size). The runs are in-process (the error needs
+an observer of the running simulation), one after another.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import time
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from dpcollapse.config import load_config, with_overrides
+from dpcollapse.errors import DpcollapseError, Interrupted
+
+#: numerics overrides of each method.
+METHODS = {
+    "picard": ["numerics.method=regularized", "numerics.nonlinear_solver=picard", "numerics.anderson_depth=0"],
+    "picard+anderson": ["numerics.method=regularized", "numerics.nonlinear_solver=picard",
+                        "numerics.anderson_depth=5"],
+    "newton": ["numerics.method=regularized", "numerics.nonlinear_solver=newton"],
+    "augmented_lagrangian": ["numerics.method=augmented_lagrangian"],
+}
+CLASSES = ("accurate", "wrong", "failed", "too_slow")
+
+
+@dataclass
+class Plan:
+    """What one map sweeps, and what counts as accurate and as too slow."""
+
+    methods: list
+    epsilons: list
+    dts: list
+    mesh_sizes: list
+    end_time: float
+    times: list              # compare times [s] (empty: the end time)
+    tolerance: float         # plug: relative L² error; rigid: front difference / front travel
+    cap: float               # CPU seconds per run
+    overrides: list = field(default_factory=list)   # fixed overrides of every run
+
+
+PLANS = {
+    # t = 0.8 s: the static layer has grown from the bed (from 0.58 s); at ΔX 1 cm, Δt 4 ms
+    # the discretization error there is 1.6e-2 (measured), the regularization error of
+    # ε = 1e-1 6e-2
+    ("plug", True): Plan(methods=list(METHODS), epsilons=[1e-1, 1e-6], dts=[4e-3], mesh_sizes=[0.01],
+                         end_time=0.8, times=[], tolerance=3e-2, cap=15.0,
+                         overrides=["time.dt_min=1e-4"]),
+    ("plug", False): Plan(methods=list(METHODS), epsilons=[1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8],
+                          dts=[2.5e-4, 5e-4, 1e-3, 2e-3, 4e-3, 8e-3], mesh_sizes=[0.02, 0.01, 0.005],
+                          end_time=0.8, times=[0.2, 0.4, 0.6, 0.8], tolerance=1e-2, cap=600.0),
+    ("rigid", True): Plan(methods=list(METHODS), epsilons=[1e-2, 1e-6], dts=[1e-3], mesh_sizes=[0.04],
+                          end_time=0.1, times=[0.05, 0.1], tolerance=0.05, cap=60.0),
+    ("rigid", False): Plan(methods=list(METHODS), epsilons=[1e-1, 1e-2, 1e-4, 1e-6, 1e-8],
+                           dts=[2.5e-4, 1e-3, 4e-3], mesh_sizes=[0.04, 0.02, 0.01],
+                           end_time=0.4, times=[0.1, 0.2, 0.4], tolerance=0.02, cap=1800.0),
+}
+
+
+@dataclass
+class Cell:
+    """One run of the map."""
+
+    scene: str
+    method: str
+    epsilon: float
+    dt: float
+    mesh_size: float
+    cls: str = ""
+    exit_code: int = 0
+    reason: str = ""
+    steps: int = 0
+    iterations: int = 0
+    factorizations: int = 0
+    wall_time: float = math.nan
+    error: float = math.nan
+
+
+class _Watch:
+    """Observer: records the compare quantity at the compare times and stops at the cap."""
+
+    def __init__(self, sim, scene: str, times, cap: float, reference=None):
+        self.scene, self.times, self.cap = scene, list(times), cap
+        self.t0 = time.process_time()
+        self.too_slow = False
+        self.values: dict[float, float] = {}
+        self.plug = None
+        if scene == "plug":
+            from dpcollapse.validation.plug import PlugObserver
+
+            self.plug = PlugObserver(sim, reference, times)
+        else:
+            self.values["front0"] = sim.disc.measures()["front"]
+
+    def __call__(self, sim) -> bool:
+        if self.plug is not None:
+            self.plug(sim)
+            self.values = self.plug.errors
+        else:
+            t, dt = sim.state.t, sim.step_sizes[-1]
+            for tc in self.times:
+                if tc not in self.values and t >= tc - 0.25 * dt:
+                    self.values[tc] = sim.disc.measures()["front"]
+        if time.process_time() - self.t0 > self.cap:
+            self.too_slow = True
+            return True
+        return False
+
+
+def _config(base, scene: str, cell: Cell, plan: Plan, extra=()):
+    over = list(METHODS[cell.method]) + [
+        f"numerics.epsilon={cell.epsilon!r}", f"time.dt={cell.dt!r}", f"time.dt_min={min(cell.dt, 1e-6)!r}",
+        f"geometry.mesh_size={cell.mesh_size!r}", f"time.end_time={plan.end_time!r}",
+        "time.output_every=1000000", "time.checkpoint_every=1000000"] + list(plan.overrides) + list(extra)
+    if scene == "rigid":
+        over.append(f"numerics.epsilon_friction={cell.epsilon!r}")
+    return with_overrides(base, over)
+
+
+def run_cell(base, scene: str, cell: Cell, plan: Plan, out: Path, reference=None, extra=()) -> tuple[Cell, dict]:
+    """Run one cell; fills its counts, class-independent fields and returns the compare values."""
+    from dpcollapse.simulation import Simulation
+
+    cfg = _config(base, scene, cell, plan, extra)
+    name = f"{cell.method}_eps{cell.epsilon:g}_dt{cell.dt:g}_dx{cell.mesh_size:g}"
+    sim = Simulation(cfg, out / "runs" / name, quiet=True)
+    watch = _Watch(sim, scene, plan.times, plan.cap, reference)
+    t0 = time.perf_counter()
+    try:
+        summary = sim.run(observers=[watch])
+        cell.factorizations = int(summary["flow_factorizations"])
+        cell.cls = "too_slow" if watch.too_slow else ""
+        if watch.too_slow:
+            cell.reason = f"CPU time over {plan.cap:g} s at t = {sim.state.t:.3f} s"
+    except Interrupted:
+        raise                      # Ctrl-C / SIGTERM ends the whole map, not one cell
+    except DpcollapseError as exc:
+        cell.cls, cell.exit_code = "failed", exc.exit_code
+        cell.reason = " ".join(str(exc).split())[:160]
+        cell.factorizations = sim.factorizations + sim.disc.flow.solver.factorizations
+    cell.wall_time = time.perf_counter() - t0
+    cell.steps = int(sim.state.step)
+    cell.iterations = int(np.sum(sim.iteration_counts))
+    return cell, dict(watch.values)
+
+
+def classify(cell: Cell, error: float, tolerance: float) -> Cell:
+    """accurate / wrong for a run that finished (failed and too_slow are set by the run)."""
+    cell.error = error
+    if not cell.cls:
+        cell.cls = "accurate" if error <= tolerance else "wrong"
+    return cell
+
+
+def _plug_error(values: dict, times) -> float:
+    e = [values[t] for t in times if t in values]
+    return float(np.sqrt(np.mean(np.square(e)))) if len(e) == len(times) else math.nan
+
+
+def _rigid_error(values: dict, reference: dict, times) -> float:
+    """max_t |x_f(t) − x_f,ref(t)| / (x_f,ref(t_last) − x_f(0))."""
+    if any(t not in values for t in times):
+        return math.nan
+    travel = reference[max(times)] - reference["front0"]
+    return max(abs(values[t] - reference[t]) for t in times) / travel
+
+
+def stability_map(scene: str, config: Path, out: Path, quick: bool = False, plan: Plan | None = None,
+                  log=print) -> list[Cell]:
+    """Run the map of ``scene``; write stability_SCENE.csv and .png into ``out``."""
+    plan = plan or PLANS[(scene, quick)]
+    plan = replace(plan, times=list(plan.times) or [plan.end_time])
+    base = load_config(config)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    reference = None
+    if scene == "plug":
+        from dpcollapse.validation.plug import reference_solution
+
+        reference = reference_solution(base, max(plan.end_time, max(plan.times)), plan.times)
+    else:
+        ref_cell = Cell(scene, "augmented_lagrangian", 1e-6, min(plan.dts), min(plan.mesh_sizes))
+        ref_cell, values = run_cell(base, scene, ref_cell, replace(plan, cap=math.inf), out)
+        if ref_cell.cls == "failed" or any(t not in values for t in plan.times):
+            raise DpcollapseError(f"the rigid reference run failed: {ref_cell.reason}")
+        reference = dict(values)
+        log(f"reference (augmented Lagrangian, dt {ref_cell.dt:g} s, dx {ref_cell.mesh_size:g} m): "
+            f"front {[round(reference[t], 5) for t in plan.times]} m, {ref_cell.wall_time:.1f} s")
+    cells = []
+    for method in plan.methods:
+        epsilons = [math.nan] if method == "augmented_lagrangian" else plan.epsilons
+        for eps in epsilons:
+            for dt in plan.dts:
+                for dx in plan.mesh_sizes:
+                    cell = Cell(scene, method, 1e-6 if math.isnan(eps) else eps, dt, dx)
+                    cell, values = run_cell(base, scene, cell, plan, out, reference)
+                    if math.isnan(eps):
+                        cell.epsilon = math.nan
+                    error = (_plug_error(values, plan.times) if scene == "plug"
+                             else _rigid_error(values, reference, plan.times))
+                    classify(cell, error, plan.tolerance)
+                    cells.append(cell)
+                    log(_row(cell))
+                    write_csv(out / f"stability_{scene}.csv", cells)
+    plot(out / f"stability_{scene}.png", cells, plan, scene)
+    return cells
+
+
+def _row(c: Cell) -> str:
+    eps = "-" if math.isnan(c.epsilon) else f"{c.epsilon:.0e}"
+    return (f"{c.method:21s} eps {eps:>6s} dt {c.dt:.2e} dx {c.mesh_size:.3g}  {c.cls:9s} "
+            f"error {c.error:.2e}  steps {c.steps:5d} its {c.iterations:6d} LU {c.factorizations:6d} "
+            f"wall {c.wall_time:7.1f} s  {('exit %d: ' % c.exit_code + c.reason) if c.exit_code else c.reason}")
+
+
+COLUMNS = ["scene", "method", "epsilon", "dt", "mesh_size", "cls", "exit_code", "reason", "steps",
+           "iterations", "factorizations", "wall_time", "error"]
+
+
+def write_csv(path: Path, cells: list[Cell]) -> None:
+    with Path(path).open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow([("class" if c == "cls" else c) for c in COLUMNS])
+        for cell in cells:
+            d = asdict(cell)
+            w.writerow([f"{d[c]:.4g}" if isinstance(d[c], float) else d[c] for c in COLUMNS])
+
+
+MARKS = {"accurate": ("o", "tab:green"), "wrong": ("^", "tab:orange"), "failed": ("X", "tab:red"),
+         "too_slow": ("D", "tab:gray")}
+
+
+def read_csv(path: Path) -> list[Cell]:
+    """The cells of a ``stability_SCENE.csv`` (e.g. to redraw the map of a partial run)."""
+    cells = []
+    with Path(path).open() as f:
+        for row in csv.DictReader(f):
+            cells.append(Cell(row["scene"], row["method"], float(row["epsilon"]), float(row["dt"]),
+                              float(row["mesh_size"]), row["class"], int(row["exit_code"]), row["reason"],
+                              int(row["steps"]), int(row["iterations"]), int(row["factorizations"]),
+                              float(row["wall_time"]), float(row["error"])))
+    return cells
+
+
+def plot(path: Path, cells: list[Cell], plan: Plan, scene: str) -> None:
+    """One panel per method: Δt (y) against ε (x), a mark per class, ΔX as marker size (and
+    a small sideways offset, finest on the left)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import matplotlib.ticker
+    from matplotlib.lines import Line2D
+
+    methods = [m for m in plan.methods if any(c.method == m for c in cells)]
+    fig, axes = plt.subplots(1, len(methods), figsize=(3.6 * len(methods) + 1, 3.9), sharey=True, squeeze=False)
+    sizes = sorted(plan.mesh_sizes)
+    eps_all = sorted(plan.epsilons)
+    for ax, method in zip(axes[0], methods):
+        for c in (c for c in cells if c.method == method):
+            marker, color = MARKS[c.cls]
+            k = sizes.index(c.mesh_size)
+            offset = 1.8 ** (k - (len(sizes) - 1) / 2)
+            xs = eps_all if math.isnan(c.epsilon) else [c.epsilon]
+            for x in xs:
+                ax.scatter([x * offset], [c.dt * 1e3], marker=marker, color=color,
+                           s=25 + 45 * k, edgecolor="k", linewidth=0.4, zorder=3)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlim(min(eps_all) / 3, max(eps_all) * 3)
+        ax.set_ylim(min(plan.dts) * 1e3 / 1.6, max(plan.dts) * 1e3 * 1.6)
+        ax.set_title(method + (" (no ε: same in every column)" if method == "augmented_lagrangian" else ""),
+                     fontsize=9)
+        ax.set_yticks([d * 1e3 for d in plan.dts])
+        ax.set_yticklabels([f"{d * 1e3:g}" for d in plan.dts])
+        ax.yaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+        ax.set_xlabel("ε [1/s]")
+        ax.grid(alpha=0.3, which="major")
+    axes[0, 0].set_ylabel("Δt [ms]")
+    handles = [Line2D([], [], marker=m, color=col, linestyle="", markeredgecolor="k", label=name)
+               for name, (m, col) in MARKS.items()]
+    handles += [Line2D([], [], marker="o", color="w", markeredgecolor="k", markersize=(25 + 45 * k) ** 0.5,
+                       label=f"ΔX = {s * 100:g} cm") for k, s in enumerate(sizes)]
+    what = ("relative L² error of u_x vs the 1D reference" if scene == "plug"
+            else "front difference / front travel vs the reference")
+    fig.suptitle(f"{scene}: t ≤ {plan.end_time:g} s; accurate = {what} ≤ {plan.tolerance:g}; "
+                 f"too slow > {plan.cap:g} CPU s", fontsize=9)
+    fig.legend(handles=handles, loc="center right", fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0, 1 - 1.3 / (3.6 * len(methods) + 1), 0.95))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,45 @@
+"""``dpcollapse stability plug --quick`` (a reduced cell set, < 60 s): the classes of known
+cells of the map, the CSV and PNG, and bad input → exit 2."""
+
+import csv
+import subprocess
+
+import pytest
+
+from tests.helpers import ROOT, dpcollapse_cmd
+
+
+@pytest.fixture(scope="module")
+def quick_map(tmp_path_factory):
+    out = tmp_path_factory.mktemp("stability")
+    proc = subprocess.run(dpcollapse_cmd() + ["stability", "plug", "--quick", "--methods", "newton,picard",
+                                              "--cap", "4", "--out", str(out)],
+                          capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    with (out / "stability_plug.csv").open() as f:
+        rows = {(r["method"], float(r["epsilon"])): r for r in csv.DictReader(f)}
+    return out, rows
+
+
+def test_quick_map_classes(quick_map):
+    """At t = 0.8 s (ΔX 1 cm, Δt 4 ms, tolerance 3e-2): ε = 1e-1 converges but is wrong
+    (regularization error 6e-2), Newton at ε = 1e-6 is accurate (1.6e-2), and plain Picard
+    needs thousands of iterations after the static layer appears: too slow at a 4 CPU-second cap (Newton: about 1 s)."""
+    out, rows = quick_map
+    assert rows[("newton", 0.1)]["class"] == "wrong"
+    assert float(rows[("newton", 0.1)]["error"]) > 3e-2
+    assert rows[("newton", 1e-6)]["class"] == "accurate"
+    assert float(rows[("newton", 1e-6)]["error"]) <= 3e-2
+    assert int(rows[("newton", 1e-6)]["factorizations"]) < 1000
+    assert rows[("picard", 1e-6)]["class"] == "too_slow"
+    assert (out / "stability_plug.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("args, key", [(["--methods", "bisection"], "--methods"),
+                                       (["--epsilons", "1e-2,abc"], "--epsilons"),
+                                       (["--cap", "-1"], "--cap")])
+def test_bad_input_exit_2(args, key, tmp_path):
+    proc = subprocess.run(dpcollapse_cmd() + ["stability", "plug", "--quick", "--out", str(tmp_path), *args],
+                          capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    assert key in proc.stderr and "Traceback" not in proc.stderr
