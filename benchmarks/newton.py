@@ -13,7 +13,6 @@ ratio of each variant to the first.
 from __future__ import annotations
 
 import argparse
-import math
 import time
 from pathlib import Path
 
