@@ -1,7 +1,9 @@
 """Remeshing: rebuild the domain from its current boundary and carry (u, p) across.
 
 1. Gather the tagged boundary edges of every rank on rank 0 and chain them into one
-   polygon (``geometry.polygon``). Every existing boundary vertex stays where it is or is
+   polygon (``geometry.polygon``). A free surface folded over itself (a crossing) is
+   untangled first: the smaller loop at each crossing is cut off at the crossing point
+   (``polygon.untangle``; its area is the area change reported). Every existing boundary vertex stays where it is or is
    dropped; none is moved or snapped, so the toe (the bed/free-surface corner) and the
    front position are exactly continuous. Long edges are split on the edge (no area
    change); clustered vertices are dropped only while the total area change stays below
@@ -19,7 +21,7 @@ import numpy as np
 
 from dpcollapse import compat
 from dpcollapse.geometry.mesher import SURFACE, TaggedMesh, mesh_polygon
-from dpcollapse.geometry.polygon import BoundaryPolygon, chain_boundary, resample
+from dpcollapse.geometry.polygon import BoundaryPolygon, chain_boundary, resample, untangle
 
 
 @dataclass
@@ -33,7 +35,8 @@ class RemeshReport:
 
 
 def boundary_polygon(tagged: TaggedMesh) -> BoundaryPolygon | None:
-    """The tagged boundary polygon of the (distributed) mesh, on rank 0 (None elsewhere)."""
+    """The tagged boundary polygon of the (distributed) mesh, on rank 0 (None elsewhere),
+    untangled where the free surface has folded over itself."""
     mesh, ft = tagged.mesh, tagged.facet_tags
     nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
     edges = mesh.geometry.x[:, :2][nodes] if len(ft.indices) else np.zeros((0, 2, 2))
@@ -42,7 +45,9 @@ def boundary_polygon(tagged: TaggedMesh) -> BoundaryPolygon | None:
         return None
     all_edges = np.concatenate([e for e, _ in gathered])
     all_tags = np.concatenate([t for _, t in gathered])
-    return chain_boundary(all_edges, all_tags)
+    folded = chain_boundary(all_edges, all_tags, simple=False)
+    points, tags, _ = untangle(folded.points, folded.edge_tags, folded.corners)
+    return BoundaryPolygon(points, tags)
 
 
 def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float | None,

@@ -20,7 +20,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 __all__ = ["BoundaryPolygon", "chain_boundary", "resample", "polygon_is_simple",
-           "segments_intersect"]
+           "segments_intersect", "untangle"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,7 +144,7 @@ def polygon_is_simple(points: np.ndarray, block: int = 512) -> bool:
 
 
 # ----------------------------------------------------------------------------- chaining
-def chain_boundary(edges: np.ndarray, tags: np.ndarray) -> BoundaryPolygon:
+def chain_boundary(edges: np.ndarray, tags: np.ndarray, simple: bool = True) -> BoundaryPolygon:
     """Chain an unordered set of tagged edges into one closed CCW polygon.
 
     ``edges`` (m, 2, 2), ``tags`` (m,). Duplicate edges (same two end points in either
@@ -152,7 +152,8 @@ def chain_boundary(edges: np.ndarray, tags: np.ndarray) -> BoundaryPolygon:
     are an error. The loop starts at a tag-change corner when there is one (the lowest,
     then leftmost such corner, so the result does not depend on the input order).
 
-    Raises ValueError unless the edges form exactly one simple closed loop.
+    Raises ValueError unless the edges form exactly one closed loop, simple unless
+    ``simple`` is False (a folded free surface, for :func:`untangle`).
     """
     edges = np.asarray(edges, dtype=float).reshape(-1, 2, 2)
     tags = np.asarray(tags).reshape(-1)
@@ -200,7 +201,7 @@ def chain_boundary(edges: np.ndarray, tags: np.ndarray) -> BoundaryPolygon:
         v = b if a == v else a
         e = inc[v, 1] if inc[v, 0] == e else inc[v, 0]
     pts = verts[order]
-    if not polygon_is_simple(pts):
+    if simple and not polygon_is_simple(pts):
         raise ValueError("boundary loop intersects itself")
     if _signed_area(pts) == 0:
         raise ValueError("boundary loop has zero area")
@@ -212,6 +213,76 @@ def chain_boundary(edges: np.ndarray, tags: np.ndarray) -> BoundaryPolygon:
     start = cand[np.lexsort((pts[cand, 0], pts[cand, 1]))[0]]
     pts, etag = np.roll(pts, -start, axis=0), np.roll(etag, -start)
     return BoundaryPolygon(pts, etag)
+
+
+# ----------------------------------------------------------------------------- untangling
+def _first_crossing(p: np.ndarray) -> tuple[int, int] | None:
+    """The first pair (i, j), i < j, of non-adjacent edges of the closed polygon ``p`` that
+    share a point (edge i joins p[i] and p[i+1]); None when the polygon is simple."""
+    n = len(p)
+    a, b = p, np.roll(p, -1, axis=0)
+    i, j = np.triu_indices(n, k=2)
+    keep = ~((i == 0) & (j == n - 1))
+    i, j = i[keep], j[keep]
+    hit = np.flatnonzero(segments_intersect(a[i], b[i], a[j], b[j]))
+    if hit.size == 0:
+        return None
+    return int(i[hit[0]]), int(j[hit[0]])
+
+
+def _crossing_point(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """A point shared by segments [a, b] and [c, d] (their intersection; for overlapping
+    collinear segments, the end point of one that lies on the other)."""
+    r, s = b - a, d - c
+    den = r[0] * s[1] - r[1] * s[0]
+    if den != 0:
+        t = ((c[0] - a[0]) * s[1] - (c[1] - a[1]) * s[0]) / den
+        return a + min(max(t, 0.0), 1.0) * r
+    for q in (c, d, a, b):
+        return q.copy()
+
+
+def untangle(poly_points: np.ndarray, edge_tags: np.ndarray,
+             fixed: Iterable[int] = ()) -> tuple[np.ndarray, np.ndarray, float]:
+    """Remove the self-intersections of a closed polygon (a free surface folded over
+    itself): at the first crossing of edges i < j at the point X, the polygon splits into
+    the loop p[i+1..j] + X and the rest p[..i] + X + p[j+1..]; the loop with the smaller
+    |area| is dropped (the rest keeps every ``fixed`` point index, e.g. the corners), and
+    so on until the polygon is simple. Returns (points, edge tags, signed area change);
+    the area change is minus the signed area of the dropped loops (a loop traversed
+    clockwise — an inverted fold — had counted negatively)."""
+    pts = np.asarray(poly_points, dtype=float).copy()
+    tags = np.asarray(edge_tags, dtype=np.int64).copy()
+    fixed = np.zeros(len(pts), dtype=bool) if not len(list(fixed)) else np.isin(
+        np.arange(len(pts)), np.asarray(list(fixed)))
+    area0 = _signed_area(pts)
+    while len(pts) > 3:
+        pair = _first_crossing(pts)
+        if pair is None:
+            break
+        i, j = pair
+        n = len(pts)
+        x = _crossing_point(pts[i], pts[(i + 1) % n], pts[j], pts[(j + 1) % n])
+        inner = np.arange(i + 1, j + 1)
+        outer = np.concatenate([np.arange(0, i + 1), np.arange(j + 1, n)])
+        loop_in = np.vstack([pts[inner], x])
+        loop_out = np.vstack([pts[: i + 1], x, pts[j + 1:]])
+        keep_inner = (fixed[inner].sum() > fixed[outer].sum()
+                      or (fixed[inner].sum() == fixed[outer].sum()
+                          and abs(_signed_area(loop_in)) > abs(_signed_area(loop_out))))
+        if keep_inner:   # edges i+1..j-1, then j (up to X), then X -> p[i+1] with edge i's tag
+            pts = loop_in
+            tags = np.concatenate([tags[i + 1: j + 1], [tags[i]]])
+            fixed = np.concatenate([fixed[inner], [False]])
+        else:            # edges ..i (p[i] -> X), then X -> p[j+1] with edge j's tag
+            pts = loop_out
+            tags = np.concatenate([tags[: i + 1], [tags[j]], tags[j + 1:]])
+            fixed = np.concatenate([fixed[: i + 1], [False], fixed[j + 1:]])
+        # a crossing at a vertex leaves a zero-length edge: drop the repeated point
+        same = np.all(pts == np.roll(pts, -1, axis=0), axis=1)
+        if same.any():
+            pts, tags, fixed = pts[~same], tags[~same], fixed[~same]
+    return pts, tags, _signed_area(pts) - area0
 
 
 # ----------------------------------------------------------------------------- resampling
