@@ -383,6 +383,12 @@ class NumericsConfig(_Section):
     remesh_min_angle: Number = _f(
         12.0, "deg", "Remesh when the smallest cell angle falls below this", gt=0, lt=60
     )
+    remesh_film_trim: Number = _f(
+        0.0, "", "Remeshing cuts off the front film thinner than this fraction of "
+        "geometry.mesh_size (vertical cut where the mass is last that thick; 0: off)", ge=0, lt=1)
+    remesh_conserve_area: bool = Field(
+        False, strict=True, description="Remeshing puts back the area that untangling a fold, "
+        "trimming the film and resampling changed, by moving the free surface along its normal")
     ale: bool = Field(True, strict=True, description="Move the mesh (false: fixed domain)")
 
     @model_validator(mode="after")

@@ -382,7 +382,7 @@ class Simulation:
                 row = {"step": st.step, "t": st.t, "dt": dt, "dt_limit": self.dt_limit,
                        "courant": self.courant,
                        "iterations": iterations,
-                       "residual": residual, "remeshes": st.remeshes,
+                       "residual": residual, "remeshes": st.remeshes, "landings": st.landings or 0,
                        "wall_time": time.perf_counter() - self.wall0, **m}
                 self.diagnostics.write(row)
                 stop = any([bool(observe(self)) for observe in observers]
@@ -437,6 +437,8 @@ class Simulation:
         summary = {
             "status": status, "t": self.state.t, "steps": self.state.step,
             "remeshes": self.state.remeshes, "front": m["front"], "max_height": m["max_height"],
+            "thick_front": m["thick_front"], "film_threshold": self.disc.film_threshold,
+            "landings": self.state.landings or 0,
             "area": m["area"], "area_drift": (m["area"] - self.state.area0) / self.state.area0,
             "kinetic_energy": m["kinetic_energy"], "min_angle": m["min_angle"],
             "min_detJ": m["min_detJ"],

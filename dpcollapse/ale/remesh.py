@@ -21,7 +21,9 @@ import numpy as np
 
 from dpcollapse import compat
 from dpcollapse.geometry.mesher import SURFACE, TaggedMesh, mesh_polygon
-from dpcollapse.geometry.polygon import BoundaryPolygon, chain_boundary, resample, untangle
+from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, clip_right, offset_run,
+                                         polygon_is_simple, resample, untangle)
+from dpcollapse.scenes.base import thickness_front
 
 
 @dataclass
@@ -34,27 +36,63 @@ class RemeshReport:
     outside_distance: float
 
 
-def boundary_polygon(tagged: TaggedMesh) -> BoundaryPolygon | None:
-    """The tagged boundary polygon of the (distributed) mesh, on rank 0 (None elsewhere),
-    untangled where the free surface has folded over itself."""
+def boundary_edges(tagged: TaggedMesh) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The tagged boundary edges (m, 2, 2) and their tags (m,) of every rank, on rank 0
+    (None elsewhere)."""
     mesh, ft = tagged.mesh, tagged.facet_tags
     nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
     edges = mesh.geometry.x[:, :2][nodes] if len(ft.indices) else np.zeros((0, 2, 2))
     gathered = mesh.comm.gather((edges, np.asarray(ft.values)), root=0)
     if mesh.comm.rank != 0:
+        return None, None
+    return (np.concatenate([e for e, _ in gathered]),
+            np.concatenate([t for _, t in gathered]))
+
+
+@dataclass
+class _Repaired:
+    polygon: BoundaryPolygon
+    area_before: float      # signed area of the boundary as it was (folds included)
+
+
+def boundary_polygon(tagged: TaggedMesh, trim_thickness: float = 0.0) -> _Repaired | None:
+    """The tagged boundary polygon of the (distributed) mesh, on rank 0 (None elsewhere),
+    repaired (``repair_polygon``), with the signed area of the boundary before repair."""
+    all_edges, all_tags = boundary_edges(tagged)
+    if tagged.mesh.comm.rank != 0:
         return None
-    all_edges = np.concatenate([e for e, _ in gathered])
-    all_tags = np.concatenate([t for _, t in gathered])
     folded = chain_boundary(all_edges, all_tags, simple=False)
-    points, tags, _ = untangle(folded.points, folded.edge_tags, folded.corners)
+    return _Repaired(repair_polygon(folded, trim_thickness), folded.area)
+
+
+def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0) -> BoundaryPolygon:
+    """Untangle a folded free surface (``polygon.untangle``) and, with ``trim_thickness``
+    > 0, cut off the film ahead of the last point where the mass is at least that thick
+    (``scenes.base.thickness_front``; vertical cut x = x_f, tagged free surface). A trim
+    that would leave a non-simple polygon (the mass crossing x = x_f several times) is
+    skipped."""
+    points, tags, _ = untangle(poly.points, poly.edge_tags, poly.corners)
+    if trim_thickness > 0:
+        x_cut = thickness_front(points, trim_thickness)
+        xmin, xmax = points[:, 0].min(), points[:, 0].max()
+        if xmin < x_cut < xmax:
+            clipped, clipped_tags = clip_right(points, tags, x_cut, SURFACE)
+            if len(clipped) >= 3 and polygon_is_simple(clipped):
+                points, tags = clipped, clipped_tags
     return BoundaryPolygon(points, tags)
 
 
 def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float | None,
-                  max_area_change: float) -> tuple[TaggedMesh, float, int]:
-    """A new mesh of the current domain; returns (mesh, polygon area change, #vertices)."""
+                  max_area_change: float, trim_thickness: float = 0.0,
+                  conserve_area: bool = False) -> tuple[TaggedMesh, float, int]:
+    """A new mesh of the current domain; returns (mesh, polygon area change, #vertices).
+
+    ``trim_thickness`` [m] > 0 trims a front film thinner than it (``repair_polygon``);
+    ``conserve_area`` puts back the area that untangling, trimming and resampling changed
+    by moving the free surface's interior vertices along their normal by one distance
+    (``polygon.offset_run``; of order ΔA / surface length)."""
     comm = tagged.mesh.comm
-    poly = boundary_polygon(tagged)
+    poly = boundary_polygon(tagged, trim_thickness)
     points = tags = None
     d_area, nverts = 0.0, 0
     if comm.rank == 0:
@@ -63,7 +101,14 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
         def target(tag: int) -> float:
             return hs if tag == SURFACE else mesh_size
 
-        poly, d_area = resample(poly, target, max_area_change)
-        points, tags, nverts = poly.points, poly.edge_tags, len(poly.points)
+        area_before = poly.area_before
+        poly, _ = resample(poly.polygon, target, max_area_change)
+        points, tags = poly.points, poly.edge_tags
+        if conserve_area:
+            moved = offset_run(points, tags, SURFACE, area_before - poly.area)
+            if polygon_is_simple(moved):
+                points = moved
+        d_area = BoundaryPolygon(points, tags).area - area_before
+        nverts = len(points)
     d_area, nverts = comm.bcast((d_area, nverts), root=0)
     return mesh_polygon(comm, points, tags, mesh_size, surface_mesh_size), d_area, nverts

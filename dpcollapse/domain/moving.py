@@ -29,8 +29,10 @@ class MovingDomain:
     moving = True
 
     def __init__(self, remesh_min_angle: float, mesh_size: float,
-                 surface_mesh_size: float | None = None):
+                 surface_mesh_size: float | None = None, trim_thickness: float = 0.0,
+                 conserve_area: bool = False):
         self.remesh_min_angle = remesh_min_angle
+        self.trim_thickness, self.conserve_area = trim_thickness, conserve_area
         self.mesh_size, self.surface_mesh_size = mesh_size, surface_mesh_size
         self.solves = 0
 
@@ -63,5 +65,6 @@ class MovingDomain:
         """A new mesh of the current boundary (``ale.remesh``): (tagged mesh, number of
         boundary vertices kept)."""
         new, _, nverts = remesh_domain(tagged, self.mesh_size, self.surface_mesh_size,
-                                       REMESH_AREA_TOLERANCE * area0)
+                                       REMESH_AREA_TOLERANCE * area0, self.trim_thickness,
+                                       self.conserve_area)
         return new, nverts

@@ -20,7 +20,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 __all__ = ["BoundaryPolygon", "chain_boundary", "resample", "polygon_is_simple",
-           "segments_intersect", "untangle"]
+           "segments_intersect", "untangle", "clip_right", "offset_run"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -283,6 +283,67 @@ def untangle(poly_points: np.ndarray, edge_tags: np.ndarray,
         if same.any():
             pts, tags, fixed = pts[~same], tags[~same], fixed[~same]
     return pts, tags, _signed_area(pts) - area0
+
+
+def clip_right(points: np.ndarray, edge_tags: np.ndarray, x_cut: float,
+               cut_tag: int) -> tuple[np.ndarray, np.ndarray]:
+    """The part x ≤ ``x_cut`` of a closed polygon (Sutherland–Hodgman against one
+    half-plane): kept pieces of edges keep their tags, the new edges along the line
+    x = x_cut get ``cut_tag``. Returns (points, edge tags); the caller checks simplicity
+    (a polygon that crosses the line several times gives edges along it)."""
+    pts = np.asarray(points, dtype=float)
+    tags = np.asarray(edge_tags, dtype=np.int64)
+    n = len(pts)
+    out, out_tags = [], []
+    for i in range(n):
+        a, b = pts[i], pts[(i + 1) % n]
+        ina, inb = a[0] <= x_cut, b[0] <= x_cut
+        if ina:
+            out.append(a)
+            # edge a -> b (or a -> crossing) keeps its tag
+            out_tags.append(int(tags[i]))
+        if ina != inb:
+            s_ = (x_cut - a[0]) / (b[0] - a[0])
+            c = np.array([x_cut, a[1] + s_ * (b[1] - a[1])])
+            out.append(c)
+            # leaving: from c along the cut line; entering: c -> b keeps the edge's tag
+            out_tags.append(cut_tag if ina else int(tags[i]))
+    pts_out, tags_out = np.array(out), np.array(out_tags, dtype=np.int64)
+    same = np.all(pts_out == np.roll(pts_out, -1, axis=0), axis=1)
+    return pts_out[~same], tags_out[~same]
+
+
+def offset_run(points: np.ndarray, edge_tags: np.ndarray, tag: int,
+               area_change: float) -> np.ndarray:
+    """Move the vertices inside the runs of edges tagged ``tag`` (both adjacent edges of
+    that tag; corners stay) along their outward normal (the mean of the two edge normals
+    of a CCW polygon) by one distance s chosen so that the signed area changes by
+    ``area_change`` (secant steps on A(s), which is quadratic in s, to round-off)."""
+    pts = np.asarray(points, dtype=float)
+    tags = np.asarray(edge_tags)
+    inner = (tags == tag) & (np.roll(tags, 1) == tag)        # vertex i: edges i-1 and i
+    e = np.roll(pts, -1, axis=0) - pts
+    normal = np.stack([e[:, 1], -e[:, 0]], axis=1)            # outward for a CCW polygon
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    vn = normal + np.roll(normal, 1, axis=0)
+    vn /= np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-300)
+    vn[~inner] = 0.0
+    area0 = _signed_area(pts)
+
+    def change(s: float) -> float:
+        return _signed_area(pts + s * vn) - area0
+
+    length = float(np.sum(np.linalg.norm(e, axis=1)[tags == tag]))
+    if not inner.any() or length == 0 or area_change == 0:
+        return pts.copy()
+    s0, s1 = 0.0, area_change / length
+    f0, f1 = -area_change, change(s1) - area_change
+    for _ in range(20):
+        if f1 == f0 or abs(f1) <= 1e-13 * abs(area0):
+            break
+        s0, s1 = s1, s1 - f1 * (s1 - s0) / (f1 - f0)
+        f0, f1 = f1, change(s1) - area_change
+    return pts + s1 * vn
 
 
 # ----------------------------------------------------------------------------- resampling
