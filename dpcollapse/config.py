@@ -385,7 +385,7 @@ class NumericsConfig(_Section):
     )
     remesh_film_trim: Number = _f(
         0.0, "", "Remeshing cuts off the front film thinner than this fraction of "
-        "geometry.mesh_size (vertical cut where the mass is last that thick; 0: off)", ge=0, lt=1)
+        "geometry.mesh_size (cut along a 10° ramp from where the mass is last that thick; 0: off)", ge=0, lt=1)
     remesh_conserve_area: bool = Field(
         False, strict=True, description="Remeshing puts back the area that untangling a fold, "
         "trimming the film and resampling changed, by moving the free surface along its normal")

@@ -119,6 +119,13 @@ class MeshMotion:
         scale = max(float(np.ptp(old[:, 0])), 1e-300)
         landed = nodes[(x[nodes, 1] <= LANDING_TOLERANCE * scale) & (old[nodes, 1] > 0)]
         x[landed, 1] = 0.0
+        # no free-surface node goes below the rigid bed: one already on it (landed, its
+        # facets not yet retagged) is not held there by w·n = 0 nor seen by the step limit
+        # (height 0); one behind the toe may overshoot through the mesh-velocity smoothing
+        surface = self._surface_nodes
+        below = surface[x[surface, 1] < 0.0]
+        x[below, 1] = 0.0
+        landed = np.union1d(landed, below[old[below, 1] > 0])
         return old, self.mesh.comm.allreduce(len(landed), op=MPI.SUM)
 
     def destroy(self) -> None:

@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from dpcollapse import compat
-from dpcollapse.geometry.mesher import SURFACE, TaggedMesh, mesh_polygon
-from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, clip_right, offset_run,
+from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, mesh_polygon
+from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, clip_half_plane, offset_run,
                                          polygon_is_simple, resample, untangle)
 from dpcollapse.scenes.base import thickness_front
 
@@ -49,6 +49,11 @@ def boundary_edges(tagged: TaggedMesh) -> tuple[np.ndarray | None, np.ndarray | 
             np.concatenate([t for _, t in gathered]))
 
 
+#: Slope of the cut that trims a front film [deg]: gentler than any friction angle in use
+#: (μ_s = 0.32 is 17.7°), so that the cut face does not slump.
+TRIM_RAMP_ANGLE = 10.0
+
+
 @dataclass
 class _Repaired:
     polygon: BoundaryPolygon
@@ -67,16 +72,35 @@ def boundary_polygon(tagged: TaggedMesh, trim_thickness: float = 0.0) -> _Repair
 
 def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0) -> BoundaryPolygon:
     """Untangle a folded free surface (``polygon.untangle``) and, with ``trim_thickness``
-    > 0, cut off the film ahead of the last point where the mass is at least that thick
-    (``scenes.base.thickness_front``; vertical cut x = x_f, tagged free surface). A trim
+    > 0, put the underside of a nose closer to the bed than it on the bed and cut off the film ahead of the last point x_f where the mass is at least that thick
+    (``scenes.base.thickness_front``), along a ramp from (x_f, δ) down to the bed (tagged
+    free surface). A trim
     that would leave a non-simple polygon (the mass crossing x = x_f several times) is
     skipped."""
     points, tags, _ = untangle(poly.points, poly.edge_tags, poly.corners)
     if trim_thickness > 0:
+        # the underside of a nose closer to the bed than trim_thickness lands on it
+        e = np.roll(points, -1, axis=0) - points
+        down = (e[:, 0] > 0) & (tags == SURFACE)        # CCW: an edge running right has
+        under = down & np.roll(down, 1)                  # the mass above it
+        close = under & (points[:, 1] > 0) & (points[:, 1] < trim_thickness)
+        if close.any():
+            snapped = points.copy()
+            snapped[close, 1] = 0.0
+            if polygon_is_simple(snapped):
+                points = snapped
+    # free-surface edges lying on the bed y = 0 (a landed nose) become bed
+    on_bed = (points[:, 1] == 0.0) & (np.roll(points[:, 1], -1) == 0.0)
+    tags = np.where((tags == SURFACE) & on_bed, BED, tags)
+    if trim_thickness > 0:
         x_cut = thickness_front(points, trim_thickness)
         xmin, xmax = points[:, 0].min(), points[:, 0].max()
         if xmin < x_cut < xmax:
-            clipped, clipped_tags = clip_right(points, tags, x_cut, SURFACE)
+            # cut along a ramp through (x_f, δ) down to the bed at TRIM_RAMP_ANGLE (a
+            # vertical cut would be a cliff that slumps again at every trim)
+            slope = np.radians(TRIM_RAMP_ANGLE)
+            clipped, clipped_tags = clip_half_plane(
+                points, tags, (x_cut, trim_thickness), (np.sin(slope), np.cos(slope)), SURFACE)
             if len(clipped) >= 3 and polygon_is_simple(clipped):
                 points, tags = clipped, clipped_tags
     return BoundaryPolygon(points, tags)
@@ -105,7 +129,9 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
         poly, _ = resample(poly.polygon, target, max_area_change)
         points, tags = poly.points, poly.edge_tags
         if conserve_area:
-            moved = offset_run(points, tags, SURFACE, area_before - poly.area)
+            # vertices on the bed y = 0 (a landed nose's underside) stay on it
+            moved = offset_run(points, tags, SURFACE, area_before - poly.area,
+                               movable=points[:, 1] > 0)
             if polygon_is_simple(moved):
                 points = moved
         d_area = BoundaryPolygon(points, tags).area - area_before

@@ -20,7 +20,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 __all__ = ["BoundaryPolygon", "chain_boundary", "resample", "polygon_is_simple",
-           "segments_intersect", "untangle", "clip_right", "offset_run"]
+           "segments_intersect", "untangle", "clip_half_plane", "clip_right", "offset_run"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -285,38 +285,43 @@ def untangle(poly_points: np.ndarray, edge_tags: np.ndarray,
     return pts, tags, _signed_area(pts) - area0
 
 
-def clip_right(points: np.ndarray, edge_tags: np.ndarray, x_cut: float,
-               cut_tag: int) -> tuple[np.ndarray, np.ndarray]:
-    """The part x ≤ ``x_cut`` of a closed polygon (Sutherland–Hodgman against one
-    half-plane): kept pieces of edges keep their tags, the new edges along the line
-    x = x_cut get ``cut_tag``. Returns (points, edge tags); the caller checks simplicity
-    (a polygon that crosses the line several times gives edges along it)."""
+def clip_half_plane(points: np.ndarray, edge_tags: np.ndarray, origin, normal,
+                    cut_tag: int) -> tuple[np.ndarray, np.ndarray]:
+    """The part n·(p − origin) ≤ 0 of a closed polygon (Sutherland–Hodgman against one
+    half-plane): kept pieces of edges keep their tags, the new edges along the line get
+    ``cut_tag``. Returns (points, edge tags); the caller checks simplicity (a polygon that
+    crosses the line several times gives edges along it)."""
     pts = np.asarray(points, dtype=float)
     tags = np.asarray(edge_tags, dtype=np.int64)
+    dist = (pts - np.asarray(origin, dtype=float)) @ np.asarray(normal, dtype=float)
     n = len(pts)
     out, out_tags = [], []
     for i in range(n):
-        a, b = pts[i], pts[(i + 1) % n]
-        ina, inb = a[0] <= x_cut, b[0] <= x_cut
+        j = (i + 1) % n
+        ina, inb = dist[i] <= 0, dist[j] <= 0
         if ina:
-            out.append(a)
-            # edge a -> b (or a -> crossing) keeps its tag
-            out_tags.append(int(tags[i]))
+            out.append(pts[i])
+            out_tags.append(int(tags[i]))       # edge a -> b (or a -> crossing)
         if ina != inb:
-            s_ = (x_cut - a[0]) / (b[0] - a[0])
-            c = np.array([x_cut, a[1] + s_ * (b[1] - a[1])])
-            out.append(c)
-            # leaving: from c along the cut line; entering: c -> b keeps the edge's tag
+            s_ = dist[i] / (dist[i] - dist[j])
+            out.append(pts[i] + s_ * (pts[j] - pts[i]))
+            # leaving: from the crossing along the cut line; entering: crossing -> b
             out_tags.append(cut_tag if ina else int(tags[i]))
     pts_out, tags_out = np.array(out), np.array(out_tags, dtype=np.int64)
     same = np.all(pts_out == np.roll(pts_out, -1, axis=0), axis=1)
     return pts_out[~same], tags_out[~same]
 
 
+def clip_right(points: np.ndarray, edge_tags: np.ndarray, x_cut: float,
+               cut_tag: int) -> tuple[np.ndarray, np.ndarray]:
+    """The part x ≤ ``x_cut`` of a closed polygon (``clip_half_plane``)."""
+    return clip_half_plane(points, edge_tags, (x_cut, 0.0), (1.0, 0.0), cut_tag)
+
+
 def offset_run(points: np.ndarray, edge_tags: np.ndarray, tag: int,
-               area_change: float) -> np.ndarray:
+               area_change: float, movable: np.ndarray | None = None) -> np.ndarray:
     """Move the vertices inside the runs of edges tagged ``tag`` (both adjacent edges of
-    that tag; corners stay) along their outward normal (the mean of the two edge normals
+    that tag; corners stay; only where ``movable``, a boolean mask, when given) along their outward normal (the mean of the two edge normals
     of a CCW polygon) by one distance s chosen so that the signed area changes by
     ``area_change`` (secant steps on A(s), which is quadratic in s, to round-off)."""
     pts = np.asarray(points, dtype=float)
@@ -327,7 +332,7 @@ def offset_run(points: np.ndarray, edge_tags: np.ndarray, tag: int,
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
     vn = normal + np.roll(normal, 1, axis=0)
     vn /= np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-300)
-    vn[~inner] = 0.0
+    vn[~inner if movable is None else ~(inner & movable)] = 0.0
     area0 = _signed_area(pts)
 
     def change(s: float) -> float:
