@@ -388,7 +388,10 @@ class Simulation:
                 stop = any([bool(observe(self)) for observe in observers]
                            + [bool(v) for v in self.events.emit("step_accepted", self, row)])
                 progress.update(st.step, st.t, dt, iterations, m["front"])
-                resting = m["max_speed"] < cfg.time.rest_speed
+                self.peak_kinetic_energy = max(getattr(self, "peak_kinetic_energy", 0.0),
+                                               m["kinetic_energy"])
+                resting = (m["max_speed"] < cfg.time.rest_speed
+                           or m["kinetic_energy"] < cfg.time.rest_energy_fraction * self.peak_kinetic_energy)
                 st.rest_time = st.rest_time + dt if resting else 0.0
                 at_rest = resting and st.rest_time >= cfg.time.rest_duration
                 if self.field_export.due(st.step) or at_rest or stop:

@@ -21,7 +21,7 @@ import numpy as np
 
 from dpcollapse import compat
 from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, mesh_polygon
-from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, clip_half_plane, offset_run,
+from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, clip_right, offset_run,
                                          polygon_is_simple, resample, untangle)
 from dpcollapse.scenes.base import thickness_front
 
@@ -49,11 +49,6 @@ def boundary_edges(tagged: TaggedMesh) -> tuple[np.ndarray | None, np.ndarray | 
             np.concatenate([t for _, t in gathered]))
 
 
-#: Slope of the cut that trims a front film [deg]: gentler than any friction angle in use
-#: (μ_s = 0.32 is 17.7°), so that the cut face does not slump.
-TRIM_RAMP_ANGLE = 10.0
-
-
 @dataclass
 class _Repaired:
     polygon: BoundaryPolygon
@@ -73,8 +68,8 @@ def boundary_polygon(tagged: TaggedMesh, trim_thickness: float = 0.0) -> _Repair
 def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0) -> BoundaryPolygon:
     """Untangle a folded free surface (``polygon.untangle``) and, with ``trim_thickness``
     > 0, put the underside of a nose closer to the bed than it on the bed and cut off the film ahead of the last point x_f where the mass is at least that thick
-    (``scenes.base.thickness_front``), along a ramp from (x_f, δ) down to the bed (tagged
-    free surface). A trim
+    (``scenes.base.thickness_front``) by the vertical x = x_f (tagged free surface; the
+    cut face, δ high, slumps a little after each trim). A trim
     that would leave a non-simple polygon (the mass crossing x = x_f several times) is
     skipped."""
     points, tags, _ = untangle(poly.points, poly.edge_tags, poly.corners)
@@ -96,11 +91,7 @@ def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0) -> Bounda
         x_cut = thickness_front(points, trim_thickness)
         xmin, xmax = points[:, 0].min(), points[:, 0].max()
         if xmin < x_cut < xmax:
-            # cut along a ramp through (x_f, δ) down to the bed at TRIM_RAMP_ANGLE (a
-            # vertical cut would be a cliff that slumps again at every trim)
-            slope = np.radians(TRIM_RAMP_ANGLE)
-            clipped, clipped_tags = clip_half_plane(
-                points, tags, (x_cut, trim_thickness), (np.sin(slope), np.cos(slope)), SURFACE)
+            clipped, clipped_tags = clip_right(points, tags, x_cut, SURFACE)
             if len(clipped) >= 3 and polygon_is_simple(clipped):
                 points, tags = clipped, clipped_tags
     return BoundaryPolygon(points, tags)
