@@ -17,12 +17,12 @@ import matplotlib
 import numpy as np
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.pyplot as plt
 
-from dpcollapse import compat  # noqa: E402
-from dpcollapse.config import load_config  # noqa: E402
-from dpcollapse.geometry.mesher import BED, SURFACE  # noqa: E402
-from dpcollapse.simulation import Simulation  # noqa: E402
+from dpcollapse import compat
+from dpcollapse.config import load_config
+from dpcollapse.geometry.mesher import BED, SURFACE
+from dpcollapse.simulation import Simulation
 
 COLOURS = {SURFACE: "b", BED: "k"}
 
