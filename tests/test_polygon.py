@@ -260,3 +260,16 @@ def test_clip_right_and_offset_run():
     assert area == pytest.approx(1.1, rel=1e-12)
     assert np.array_equal(moved[[0, 1, 4]], sq[[0, 1, 4]])    # corners stay
     assert moved[3, 1] > 1.0
+
+
+def test_remove_spikes_drops_a_hairpin():
+    """A thin spike on the top edge (interior angle ~2°) goes; the square's corners stay."""
+    from dpcollapse.geometry.polygon import remove_spikes
+
+    pts = np.array([[0, 0], [1, 0], [1, 1], [0.51, 1], [0.5, 1.3], [0.49, 1], [0, 1]], dtype=float)
+    tags = np.array([1, 3, 3, 3, 3, 3, 2])
+    out, out_tags = remove_spikes(pts, tags, 3, 15.0)
+    assert [0.5, 1.3] not in out.tolist()
+    assert len(out) == 6 and len(out_tags) == 6 and polygon_is_simple(out)
+    same, _ = remove_spikes(out, out_tags, 3, 15.0)
+    assert np.array_equal(same, out)

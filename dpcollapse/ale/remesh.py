@@ -22,7 +22,8 @@ import numpy as np
 from dpcollapse import compat
 from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, mesh_polygon
 from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, clip_right, offset_run,
-                                         polygon_is_simple, resample, untangle)
+                                         polygon_is_simple, remove_spikes, resample,
+                                         untangle)
 from dpcollapse.scenes.base import thickness_front
 
 
@@ -49,6 +50,11 @@ def boundary_edges(tagged: TaggedMesh) -> tuple[np.ndarray | None, np.ndarray | 
             np.concatenate([t for _, t in gathered]))
 
 
+#: With a film trim, free-surface vertices with an interior angle below this [deg] (hairpin
+#: spikes) are dropped at remeshes.
+SPIKE_ANGLE = 15.0
+
+
 @dataclass
 class _Repaired:
     polygon: BoundaryPolygon
@@ -67,13 +73,16 @@ def boundary_polygon(tagged: TaggedMesh, trim_thickness: float = 0.0) -> _Repair
 
 def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0) -> BoundaryPolygon:
     """Untangle a folded free surface (``polygon.untangle``) and, with ``trim_thickness``
-    > 0, put the underside of a nose closer to the bed than it on the bed and cut off the film ahead of the last point x_f where the mass is at least that thick
+    > 0, drop hairpin spikes of the surface (``polygon.remove_spikes``), put the underside
+    of a nose closer to the bed than it on the bed and cut off the film ahead of the last point x_f where the mass is at least that thick
     (``scenes.base.thickness_front``) by the vertical x = x_f (tagged free surface; the
     cut face, δ high, slumps a little after each trim). A trim
     that would leave a non-simple polygon (the mass crossing x = x_f several times) is
     skipped."""
     points, tags, _ = untangle(poly.points, poly.edge_tags, poly.corners)
     if trim_thickness > 0:
+        # hairpin spikes of a crumpled surface (no crossing): a 0° angle in the new mesh
+        points, tags = remove_spikes(points, tags, SURFACE, SPIKE_ANGLE)
         # the underside of a nose closer to the bed than trim_thickness lands on it
         e = np.roll(points, -1, axis=0) - points
         down = (e[:, 0] > 0) & (tags == SURFACE)        # CCW: an edge running right has

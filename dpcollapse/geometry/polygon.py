@@ -20,7 +20,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 __all__ = ["BoundaryPolygon", "chain_boundary", "resample", "polygon_is_simple",
-           "segments_intersect", "untangle", "clip_half_plane", "clip_right", "offset_run"]
+           "segments_intersect", "untangle", "remove_spikes", "clip_half_plane", "clip_right", "offset_run"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -283,6 +283,33 @@ def untangle(poly_points: np.ndarray, edge_tags: np.ndarray,
         if same.any():
             pts, tags, fixed = pts[~same], tags[~same], fixed[~same]
     return pts, tags, _signed_area(pts) - area0
+
+
+def remove_spikes(points: np.ndarray, edge_tags: np.ndarray, tag: int,
+                  min_angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """Drop the vertices inside runs of ``tag`` whose interior angle (between the edges to
+    their two neighbours) is below ``min_angle`` [deg] — hairpin spikes of a crumpled free
+    surface that do not cross anything, so :func:`untangle` leaves them — one at a time,
+    sharpest first, as long as the polygon stays simple. Returns (points, edge tags)."""
+    pts = np.asarray(points, dtype=float)
+    tags = np.asarray(edge_tags, dtype=np.int64)
+    while len(pts) > 3:
+        a, b = np.roll(pts, 1, axis=0) - pts, np.roll(pts, -1, axis=0) - pts
+        cos = np.einsum("ij,ij->i", a, b) / np.maximum(
+            np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
+        angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+        inner = (tags == tag) & (np.roll(tags, 1) == tag)
+        candidates = np.flatnonzero(inner & (angle < min_angle))
+        removed = False
+        for i in candidates[np.argsort(angle[candidates])]:
+            keep = np.arange(len(pts)) != i
+            if polygon_is_simple(pts[keep]):
+                pts, tags = pts[keep], tags[keep]    # edge i-1 now runs to point i+1
+                removed = True
+                break
+        if not removed:
+            break
+    return pts, tags
 
 
 def clip_half_plane(points: np.ndarray, edge_tags: np.ndarray, origin, normal,
