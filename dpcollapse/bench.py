@@ -23,7 +23,7 @@ factorization, and the symbolic one on a new pattern) and times it apart from th
 solves. :class:`Instrument` subscribes to the run's ``discretization`` event (every flow
 discretization the run creates: the initial one, after each remesh, after a nose lands on
 the bed) and sums their counters; nothing is wrapped, and a tracked run gives the
-diagnostics of an untracked one bit for bit (``tests/test_bench.py`` checks it).
+diagnostics of an untracked one bit for bit (``tests/system/test_bench.py`` checks it).
 
 Peak memory: ``ru_maxrss`` after resetting the high-water mark (``/proc/self/clear_refs``,
 Linux ≥ 4.0) before each case, max over ranks; where the reset is refused it is the peak of

@@ -1,7 +1,7 @@
 """Every DOLFINx (and dolfinx_mpc) call whose API differs between the supported versions.
 
 Supported: DOLFINx 0.5.2 (Debian 12), 0.9 (Debian 13) and 0.11 (current upstream, Debian
-sid). The rest of the package reads the same on every version; ``tests/test_compat.py``
+sid). The rest of the package reads the same on every version; ``tests/unit/test_compat.py``
 greps it for the version-specific names that must only appear here.
 
 What changed, and where it is handled:

@@ -40,6 +40,7 @@ class MeshMotion:
         a, L = mesh_velocity_forms(ufl.TrialFunction(Vw), ufl.TestFunction(Vw), flow.u_old,
                                    fem.Constant(mesh, compat.ScalarType(penalty)), ds_surface)
         self.system = LinearSystem(a, L, self._slip_bcs(Vw))
+        self._slanted = self._slanted_sides(Vw)
         self.solver = DirectSolver(mesh.comm, linear_solver, prefix="dpc_ale_")
         # geometry node -> dof of Vw (P1 on a P1 mesh: same local vertex order per cell)
         gdm = compat.geometry_dofmap(mesh)
@@ -50,12 +51,29 @@ class MeshMotion:
         ft = flow.tagged.facet_tags
         self._surface_nodes = _tagged_nodes(mesh, ft, SURFACE)
         self._bed_nodes = _tagged_nodes(mesh, ft, BED)
+        # the bed is the line y = 0 (not a rotated scene): free-surface nodes stay above it
+        flat = bool(np.all(mesh.geometry.x[self._bed_nodes, 1] == 0.0))
+        self._flat_bed = mesh.comm.allreduce(flat, op=MPI.LAND) and mesh.comm.allreduce(
+            len(self._bed_nodes), op=MPI.SUM) > 0
 
     def _slip_bcs(self, Vw):
-        """w·n = 0 on every solid side (w_y on the bed y = 0, w_x on the wall x = 0): nodes
-        slide along it, also where the flow sticks (no slip)."""
+        """w·n = 0 on every solid side parallel to an axis (w_y on the bed y = 0, w_x on the
+        wall x = 0): nodes slide along it, also where the flow sticks (no slip)."""
         ft = self.flow.tagged.facet_tags
-        return [zero_dirichlet(Vw.sub(b.normal_axis()), ft, b.tag) for b in self.flow.params.of_kind(*SOLID)]
+        return [zero_dirichlet(Vw.sub(b.axis), ft, b.tag)
+                for b in self.flow.params.of_kind(*SOLID) if b.axis is not None]
+
+    def _slanted_sides(self, Vw) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(nodes of Vw, unit normal n) of each slanted solid side: there w·n = 0 is made
+        exact after the solve by removing the normal part, w ← w − (w·n) n."""
+        ft = self.flow.tagged.facet_tags
+        fdim = self.mesh.topology.dim - 1
+        sides = []
+        for b in self.flow.params.of_kind(*SOLID):
+            if b.axis is None:
+                nodes = fem.locate_dofs_topological(Vw, fdim, ft.indices[ft.values == b.tag])
+                sides.append((np.asarray(nodes, dtype=np.int64), np.asarray(b.normal, dtype=float)))
+        return sides
 
     def compute(self) -> None:
         """Solve for w from the accepted velocity uⁿ on the current mesh."""
@@ -70,6 +88,11 @@ class MeshMotion:
                             "larger numerics.remesh_min_angle (remesh sooner), may carry it "
                             "further") from None
         self.w.x.scatter_forward()
+        if self._slanted:
+            w = self.w.x.array.reshape(-1, 2)
+            for nodes, n in self._slanted:
+                w[nodes] -= np.outer(w[nodes] @ n, n)
+            self.w.x.scatter_forward()
 
     def node_velocity(self) -> np.ndarray:
         """w at every geometry node, (num_nodes, 2)."""
@@ -122,7 +145,7 @@ class MeshMotion:
         # no free-surface node goes below the rigid bed: one already on it (landed, its
         # facets not yet retagged) is not held there by w·n = 0 nor seen by the step limit
         # (height 0); one behind the toe may overshoot through the mesh-velocity smoothing
-        surface = self._surface_nodes
+        surface = self._surface_nodes if self._flat_bed else self._surface_nodes[:0]
         below = surface[x[surface, 1] < 0.0]
         x[below, 1] = 0.0
         landed = np.union1d(landed, below[old[below, 1] > 0])

@@ -18,13 +18,20 @@ step, so one LU factorization serves every iteration. Width-averaged side-wall f
 (2/w) μ_w [p]_+ u/|u| is a Coulomb law in the volume and gets the same treatment with a
 volume slip multiplier δ_w, traction σ_w and penalty r_w ("volume_augmentation",
 "volume_multiplier").
+
+On a slanted solid side (no velocity component to carry u·n = 0) the condition is imposed by
+Nitsche's method with the step's operator stress r D(u) − p I ("<wall>_no_penetration",
+``forms.no_penetration``), and the normal part of the explicit stress σ' − r γ̇ that the
+integration by parts leaves on the side goes to the right-hand side::
+
+  + ∫_Γ n·(σ' − r γ̇)n (v·n) ds                          "<wall>_normal_multiplier"
 """
 
 from __future__ import annotations
 
 import ufl
 
-from dpcollapse.forms import momentum
+from dpcollapse.forms import momentum, no_penetration
 from dpcollapse.forms.friction import tangential
 from dpcollapse.rheology.kinematics import strain_rate
 
@@ -49,6 +56,11 @@ def boundary_multiplier(traction, slip, r_f, v, n, ds):
     return ufl.inner(tangential(traction + r_f * slip, n), tangential(v, n)) * ds
 
 
+def normal_multiplier(sigma, gamma, r, v, n, ds):
+    """∫_Γ n·(σ' − r γ̇)n (v·n) ds on a slanted side (right-hand side; with Nitsche's u·n = 0)."""
+    return ufl.dot(n, ufl.dot(sigma - r * gamma, n)) * ufl.dot(v, n) * ds
+
+
 def volume_augmentation(r_w, u, v, dx=ufl.dx):
     """∫ r_w u·v dx: penalty of the side-wall slip multiplier."""
     return r_w * ufl.inner(u, v) * dx
@@ -61,14 +73,16 @@ def volume_multiplier(traction, slip, r_w, v, dx=ufl.dx):
 
 def augmented_terms(*, rho, dt, body_force, r, u_old, mesh_velocity, sigma, gamma, trial, test,
                     n=None, ds_friction=None, r_f=None, traction=None, slip=None,
-                    r_w=None, side_traction=None, side_slip=None) -> tuple[dict, dict]:
+                    r_w=None, side_traction=None, side_slip=None, weak_walls=()) -> tuple[dict, dict]:
     """(lhs, rhs): the named terms of step 1 (the module docstring's equation).
 
     lhs: "inertia", "convection" (by uⁿ − w), "augmented_viscous", "pressure",
     "incompressibility", and "boundary_augmentation" when ``ds_friction`` (the friction
     walls) is given, "volume_augmentation" when ``r_w`` is given;
     rhs: "gravity", "previous_velocity", "multiplier_stress", and "boundary_multiplier",
-    "volume_multiplier" likewise. Σ lhs = Σ rhs in the order of the dictionaries.
+    "volume_multiplier" likewise; for each (name, ds) of ``weak_walls`` (slanted solid
+    sides) "<name>" on the left and "<name>" with "_no_penetration" replaced by
+    "_normal_multiplier" on the right. Σ lhs = Σ rhs in the order of the dictionaries.
     """
     (u, p), (v, q) = trial, test
     lhs = {
@@ -89,4 +103,8 @@ def augmented_terms(*, rho, dt, body_force, r, u_old, mesh_velocity, sigma, gamm
     if r_w is not None:
         lhs["volume_augmentation"] = volume_augmentation(r_w, u, v)
         rhs["volume_multiplier"] = volume_multiplier(side_traction, side_slip, r_w, v)
+    for name, ds_wall in weak_walls:
+        lhs[name] = no_penetration.nitsche_no_penetration(r, u, p, v, q, n, ds_wall)
+        rhs[name.replace("_no_penetration", "_normal_multiplier")] = normal_multiplier(
+            sigma, gamma, r, v, n, ds_wall)
     return lhs, rhs

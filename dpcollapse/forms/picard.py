@@ -9,6 +9,7 @@ For (u, p) = (u^{n+1,k+1}, p^{n+1,k+1}) and every test pair (v, q)::
           "incompressibility"  −∫ q div u
           "<wall>_friction"    ∫_Γ μ [pᵏ − σ'_nn]_+ u_T·v_T/√(|u_Tᵏ|² + ε_f²) ds   (each Coulomb wall)
           "side_wall_friction" (2/w) ∫ μ_w [pᵏ]_+ u·v/√(|uᵏ|² + ε_f²)            (channel of width w)
+          "<wall>_no_penetration"  Nitsche's u·n = 0 on a slanted side, with S (forms.no_penetration)
     rhs:  "gravity"            ∫ ρ f·v
           "previous_velocity"  ∫ ρ uⁿ/Δt · v
 
@@ -20,23 +21,25 @@ from __future__ import annotations
 
 import ufl
 
-from dpcollapse.forms import friction, momentum
+from dpcollapse.forms import friction, momentum, no_penetration
 
 
 def picard_terms(law, *, rho, dt, body_force, epsilon, epsilon_friction, u_iter, p_iter, u_old,
                  mesh_velocity, trial, test, n, dx=ufl.dx, ds=None, friction_walls=(),
-                 side_walls=None) -> tuple[dict, dict]:
+                 side_walls=None, weak_walls=()) -> tuple[dict, dict]:
     """(lhs, rhs): the named bilinear and linear terms (UFL forms) of one Picard iteration.
 
     law: a :class:`~dpcollapse.rheology.base.Rheology`; trial = (u, p), test = (v, q);
     friction_walls: (name, μ, facet tag) of each Coulomb wall, integrated on ``ds(tag)``;
-    side_walls: (w, μ_w) for width-averaged side-wall friction, or None.
+    side_walls: (w, μ_w) for width-averaged side-wall friction, or None;
+    weak_walls: (term name, facet tag) of each slanted solid side (Nitsche's u·n = 0).
     """
     (u, p), (v, q) = trial, test
+    secant = law.secant_viscosity(u_iter, p_iter, epsilon)
     lhs = {
         "inertia": momentum.inertia(rho, dt, u, v),
         "convection": momentum.convection(rho, u_iter, mesh_velocity, u, v, dx),
-        "viscoplastic": momentum.viscoplastic(law.secant_viscosity(u_iter, p_iter, epsilon), u, v, dx),
+        "viscoplastic": momentum.viscoplastic(secant, u, v, dx),
         "pressure": momentum.pressure(p, v),
         "incompressibility": momentum.incompressibility(q, u),
     }
@@ -49,6 +52,8 @@ def picard_terms(law, *, rho, dt, body_force, epsilon, epsilon_friction, u_iter,
         width, mu_side = side_walls
         lhs["side_wall_friction"] = friction.side_wall_friction(width, mu_side, p_iter, u_iter,
                                                                 epsilon_friction, u, v, dx)
+    for name, tag in weak_walls:
+        lhs[name] = no_penetration.nitsche_no_penetration(secant, u, p, v, q, n, ds(tag))
     rhs = {
         "gravity": momentum.gravity(rho, body_force, v),
         "previous_velocity": momentum.previous_velocity(rho, dt, u_old, v),

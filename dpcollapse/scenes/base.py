@@ -10,10 +10,11 @@ normal n of a straight side (tangent t = (−n_y, n_x), the counter-clockwise di
     free_surface   σ n = 0  (p = 0 for the pressure preconditioner; ALE: (w − u)·n = 0)
     periodic       u(x) = u(x + translation) on the side that carries the translation
 
-u·n = 0 is imposed strongly on the velocity component along n, so solid sides must be
-parallel to an axis (:meth:`Boundary.normal_axis` refuses others: a slanted wall needs a
-slip constraint, Nitsche or a penalty, not implemented yet). The mesh velocity of a moving
-domain has w·n = 0 on every solid side, so nodes slide along it.
+u·n = 0 is imposed strongly on the velocity component along n where the side is parallel to
+an axis (:attr:`Boundary.axis`), and weakly by Nitsche's method on a slanted side
+(``forms.no_penetration``: consistent, exact for a solution in the space). The mesh velocity
+of a moving domain has w·n = 0 on every solid side, so nodes slide along it (strongly on
+one component, or by removing the normal part of w at the side's nodes).
 """
 
 from __future__ import annotations
@@ -63,16 +64,21 @@ class Boundary:
         nx, ny = self.normal
         return (-ny, nx)
 
-    def normal_axis(self) -> int:
-        """The velocity component that u·n = 0 sets to zero: 0 for n = (±1, 0), 1 for (0, ±1)."""
+    @property
+    def axis(self) -> int | None:
+        """The velocity component that u·n = 0 sets to zero: 0 for n = (±1, 0), 1 for
+        (0, ±1); None for a slanted side (u·n = 0 imposed weakly, ``forms.no_penetration``)."""
         nx, ny = self.normal
         if ny == 0 and abs(nx) == 1:
             return 0
         if nx == 0 and abs(ny) == 1:
             return 1
-        raise NotImplementedError(
-            f"boundary {self.name}: no penetration on a side of normal {self.normal} (not along "
-            "an axis) needs a slip constraint, not implemented yet")
+        return None
+
+    @property
+    def slanted(self) -> bool:
+        """A solid side with no penetration along no axis (not no slip, which is u = 0)."""
+        return self.kind in (BoundaryKind.COULOMB, BoundaryKind.SLIP) and self.axis is None
 
     @property
     def has_friction(self) -> bool:

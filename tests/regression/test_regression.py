@@ -64,7 +64,7 @@ def test_full_rigid_run_matches_stored_values(tmp_path):
     maximum height at rest within 1e-6 m."""
     got = run_case("rigid_full", tmp_path, MPI.COMM_SELF)
     _compare(got, REFERENCE["rigid_full"])
-    # and what makes it a physical result (this test replaces tests/test_collapse.py's
+    # and what makes it a physical result (this test replaces tests/system/test_collapse.py's
     # test_full_rigid_case_reaches_rest, so that the 90 s run is done once)
     d = read_diagnostics(tmp_path / "diagnostics.csv")
     assert got["status"] == "at_rest"

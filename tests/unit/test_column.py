@@ -58,7 +58,7 @@ def test_column_scene_boundaries_and_mesh():
     bed, wall, surface = sc.boundaries()
     assert (bed.tag, bed.kind) == (BED, BoundaryKind.COULOMB)
     assert bed.friction == pytest.approx(math.tan(math.radians(25.5)))
-    assert (wall.tag, wall.kind, wall.normal_axis(), wall.has_friction) == (WALL, BoundaryKind.SLIP, 0, False)
+    assert (wall.tag, wall.kind, wall.axis, wall.has_friction) == (WALL, BoundaryKind.SLIP, 0, False)
     assert (surface.tag, surface.kind) == (SURFACE, BoundaryKind.FREE_SURFACE)
     tagged = sc.mesh(MPI.COMM_SELF)
     x = tagged.mesh.geometry.x

@@ -36,7 +36,7 @@ def test_trapezoid_boundaries():
     bed, wall, surface = scene(load_config(ROOT / "configs/rigid.yaml")).boundaries()
     assert (bed.tag, bed.kind, bed.normal, bed.tangent) == (BED, BoundaryKind.COULOMB, (0.0, -1.0), (1.0, 0.0))
     assert bed.friction == pytest.approx(math.tan(math.radians(25.5)))
-    assert (wall.tag, wall.kind, wall.normal, wall.normal_axis()) == (WALL, BoundaryKind.COULOMB, (-1.0, 0.0), 0)
+    assert (wall.tag, wall.kind, wall.normal, wall.axis) == (WALL, BoundaryKind.COULOMB, (-1.0, 0.0), 0)
     assert wall.friction == pytest.approx(math.tan(math.radians(10.2)))
     assert (surface.tag, surface.kind) == (SURFACE, BoundaryKind.FREE_SURFACE)
     cfg = load_config(ROOT / "configs/rigid.yaml", ["boundary.wall_friction_angle=0",
@@ -54,10 +54,12 @@ def test_layer_boundaries():
     assert bounds[RIGHT].translation == (-cfg.geometry.base_length, 0.0) and bounds[LEFT].translation is None
 
 
-def test_no_penetration_needs_an_axis_parallel_side():
-    slanted = Boundary(7, "hopper", BoundaryKind.SLIP, (-math.sqrt(0.5), -math.sqrt(0.5)))
-    with pytest.raises(NotImplementedError, match="hopper"):
-        slanted.normal_axis()
+def test_a_slanted_side_has_no_axis_and_gets_weak_no_penetration():
+    n = (-math.sqrt(0.5), -math.sqrt(0.5))
+    hopper = Boundary(7, "hopper", BoundaryKind.SLIP, n)
+    assert hopper.axis is None and hopper.slanted
+    assert not Boundary(7, "hopper", BoundaryKind.NO_SLIP, n).slanted    # u = 0: any angle
+    assert Boundary(1, "bed", BoundaryKind.COULOMB, (0.0, -1.0), friction=0.5).axis == 1
 
 
 @pytest.mark.parametrize("config, area", [("rigid.yaml", None), ("plug.yaml", 0.05 * 0.025)])

@@ -188,7 +188,8 @@ class AugmentedLagrangianFlow(StokesState):
             mesh_velocity=self.mesh_velocity, sigma=self.sigma, gamma=self.gamma,
             trial=(u, pr), test=(v, q), n=n, ds_friction=ds_f, r_f=r_f, traction=self.traction,
             slip=self.slip, r_w=r_w if self.has_side_walls else None,
-            side_traction=self.side_traction, side_slip=self.side_slip)
+            side_traction=self.side_traction, side_slip=self.side_slip,
+            weak_walls=[(name, ds(tag)) for name, tag in self.weak_walls()])
         L = sum(rhs.values())
         if walls:
             self._setup_friction_nodes(walls)

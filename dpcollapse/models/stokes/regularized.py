@@ -106,7 +106,8 @@ class RegularizedFlow(StokesState):
             u_iter=u_k, p_iter=p_k, u_old=self.u_old, mesh_velocity=self.mesh_velocity,
             trial=(u, pr), test=(v, q), n=n, dx=dx, ds=ds,
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
-            side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None)
+            side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None,
+            weak_walls=self.weak_walls())
         a = sum(self.terms.values())
         L = sum(rhs.values())
         self.system = self._make_system(a, L)

@@ -127,12 +127,18 @@ class StokesState:
 
     def _dirichlet_bcs(self):
         """On each solid side of the scene: no slip u = 0, or no penetration u·n = 0 exactly
-        (the component along its axis-parallel normal: u_y = 0 on the bed y = 0, u_x = 0 on
-        the wall x = 0)."""
+        on a side parallel to an axis (the component along its normal: u_y = 0 on the bed
+        y = 0, u_x = 0 on the wall x = 0). Slanted sides: ``weak_walls``."""
         velocity = self.W.sub(0)
         ft = self.tagged.facet_tags
-        return [zero_dirichlet(velocity if b.kind == BoundaryKind.NO_SLIP else velocity.sub(b.normal_axis()),
-                               ft, b.tag) for b in self.params.of_kind(*SOLID)]
+        return [zero_dirichlet(velocity if b.kind == BoundaryKind.NO_SLIP else velocity.sub(b.axis),
+                               ft, b.tag) for b in self.params.of_kind(*SOLID) if not b.slanted]
+
+    def weak_walls(self) -> list[tuple[str, int]]:
+        """(name, tag) of the slanted solid sides on this mesh, where u·n = 0 is imposed by
+        Nitsche's method (``forms.no_penetration``)."""
+        return [(f"{b.name}_no_penetration", b.tag) for b in self.params.of_kind(*SOLID)
+                if b.slanted and self._has_tag(b.tag)]
 
     # ------------------------------------------------------------------ state access
     def set_velocity(self, profile) -> None:

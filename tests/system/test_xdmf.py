@@ -1,7 +1,7 @@
 """XDMFTimeSeries: per-step XDMF/H5 pairs plus an atomically rewritten master.
 
-Serial:  .venv/bin/python -m pytest tests/test_xdmf.py -q
-MPI:     mpirun -n 2 .venv/bin/python -m pytest -m mpi tests/test_xdmf.py -q
+Serial:  .venv/bin/python -m pytest tests/system/test_xdmf.py -q
+MPI:     mpirun -n 2 .venv/bin/python -m pytest -m mpi tests/system/test_xdmf.py -q
 The ParaView checks run tests/pv_read_xdmf.py under pvpython (skipped only when pvpython
 is not on PATH).
 """

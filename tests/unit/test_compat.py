@@ -20,7 +20,7 @@ from mpi4py import MPI
 from dpcollapse import compat
 from tests.helpers import OVERSUBSCRIBE, clean_env
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 #: Names whose meaning or existence differs between the supported DOLFINx versions.
 VERSION_SPECIFIC = {

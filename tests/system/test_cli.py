@@ -12,7 +12,7 @@ import pytest
 from dpcollapse.cli import main
 from dpcollapse.errors import ConvergenceError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 RIGID = str(ROOT / "configs" / "rigid.yaml")
 
 

@@ -19,7 +19,7 @@ from dpcollapse.config import (
 )
 from dpcollapse.errors import ConfigError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 RIGID = ROOT / "configs" / "rigid.yaml"
 STABLE = ROOT / "configs" / "stable.yaml"
 
