@@ -455,6 +455,12 @@ class NumericsConfig(_Section):
     remesh_min_angle: Number = _f(
         12.0, "deg", "Remesh when the smallest cell angle falls below this", gt=0, lt=60
     )
+    remesh_film_trim: Number = _f(
+        0.0, "", "Remeshing cuts off the front film thinner than this fraction of "
+        "geometry.mesh_size (vertical cut where the mass is last that thick; 0: off)", ge=0, lt=1)
+    remesh_conserve_area: bool = Field(
+        False, strict=True, description="Remeshing puts back the area that untangling a fold, "
+        "trimming the film and resampling changed, by moving the free surface along its normal")
     ale: bool = Field(True, strict=True, description="Move the mesh (false: fixed domain)")
 
     @model_validator(mode="after")
@@ -564,6 +570,9 @@ class TimeConfig(_Section):
     output_every: Count = _f(20, "", "Write XDMF output every N steps", ge=1)
     checkpoint_every: Count = _f(50, "", "Write a restart checkpoint every N steps", ge=1)
     rest_speed: Number = _f(1.0e-3, "m/s", "At rest when max |u| stays below this ...", gt=0)
+    rest_energy_fraction: Number = _f(
+        0.0, "", "Also at rest while the kinetic energy stays below this fraction of its peak "
+        "(0: off; for a deposit whose max |u| is held up by a few nodes)", ge=0, lt=1)
     rest_duration: Number = _f(0.05, "s", "... for this long; then the run ends", ge=0)
 
     @property

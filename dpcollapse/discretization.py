@@ -26,6 +26,7 @@ from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
 from dpcollapse.rheology.base import Rheology
 from dpcollapse.rheology.drucker_prager import DruckerPrager
 from dpcollapse.rheology.mu_i import MuI
+from dpcollapse.scenes.base import film_threshold, thickness_front
 from dpcollapse.scenes.registry import build_mesh, scene as make_scene
 from dpcollapse.models.registry import model_class
 from dpcollapse.models.stokes.augmented import augmented_settings  # noqa: F401  (callers import it here)
@@ -87,6 +88,9 @@ class Discretization:
         self.scene = make_scene(cfg)
         self.flow = make_flow(tagged, cfg, self.scene)
         self.orientation = cell_orientation(mesh)
+        # the thickness front: max(3 d, h/4); d only where the law has grains (mu_i)
+        grains = cfg.material.grain_diameter if cfg.material.rheology == "mu_i" else 0.0
+        self.film_threshold = film_threshold(grains, cfg.geometry.mesh_size)
         self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
                                  direct_solver(cfg)) if cfg.numerics.ale else None
         u, p = ufl.split(self.flow.solution)
@@ -183,7 +187,26 @@ class Discretization:
         }
         out.update(quality(self.mesh, self.orientation))
         out["ill_posed_fraction"] = self.ill_posed_fraction()
+        out["thick_front"] = self.thick_front()
         return out
+
+    def thick_front(self) -> float:
+        """The furthest x where the mass is at least ``film_threshold`` thick
+        (``scenes.base.thickness_front`` on the boundary polygon, gathered on rank 0):
+        the front of a deposit that ends in a thin film; −inf on a boundary that does not
+        chain into one loop."""
+        from dpcollapse.ale.remesh import boundary_edges
+        from dpcollapse.geometry.polygon import chain_boundary
+
+        edges, tags = boundary_edges(self.tagged)
+        front = None
+        if self.comm.rank == 0:
+            try:
+                poly = chain_boundary(edges, tags, simple=False)
+                front = thickness_front(poly.points, self.film_threshold)
+            except ValueError:
+                front = -math.inf
+        return float(self.comm.bcast(front, root=0))
 
     def ill_posed_fraction(self) -> float:
         """μ(I): fraction of the flowing cells (|u| > 1 mm/s) whose I lies outside the

@@ -117,6 +117,9 @@ class LoopState:
     remesh_angle_after: float | None = None
     kinetic_energy_previous: float | None = None
     landings: int | None = None
+    #: the largest kinetic energy so far [J/m] (the rest rule time.rest_energy_fraction;
+    #: in the checkpoint so that a resumed run stops where the uninterrupted one does)
+    kinetic_energy_peak: float | None = None
     #: entries of a checkpoint this version does not know, kept and written back
     extra: dict = field(default_factory=dict)
 

@@ -375,13 +375,15 @@ class Simulation:
                 row = {"step": st.step, "t": st.t, "dt": dt, "dt_limit": self.dt_limit,
                        "courant": self.courant,
                        "iterations": iterations,
-                       "residual": residual, "remeshes": st.remeshes,
+                       "residual": residual, "remeshes": st.remeshes, "landings": st.landings or 0,
                        "wall_time": time.perf_counter() - self.wall0, **m}
                 self.diagnostics.write(row)
                 stop = any([bool(observe(self)) for observe in observers]
                            + [bool(v) for v in self.events.emit("step_accepted", self, row)])
                 progress.update(st.step, st.t, dt, iterations, m["front"])
-                resting = m["max_speed"] < cfg.time.rest_speed
+                st.kinetic_energy_peak = max(st.kinetic_energy_peak or 0.0, m["kinetic_energy"])
+                resting = (m["max_speed"] < cfg.time.rest_speed
+                           or m["kinetic_energy"] < cfg.time.rest_energy_fraction * st.kinetic_energy_peak)
                 st.rest_time = st.rest_time + dt if resting else 0.0
                 at_rest = resting and (st.rest_time >= cfg.time.rest_duration
                                        or m.get("at_rest", False))
@@ -431,6 +433,8 @@ class Simulation:
         summary = {
             "status": status, "t": self.state.t, "steps": self.state.step,
             "remeshes": self.state.remeshes, "front": m["front"], "max_height": m["max_height"],
+            "thick_front": m["thick_front"], "film_threshold": self.disc.film_threshold,
+            "landings": self.state.landings or 0,
             "area": m["area"], "area_drift": (m["area"] - self.state.area0) / self.state.area0,
             "kinetic_energy": m["kinetic_energy"], "min_angle": _finite(m["min_angle"]),
             "min_detJ": _finite(m["min_detJ"]),

@@ -51,6 +51,10 @@ class MeshMotion:
         ft = flow.tagged.facet_tags
         self._surface_nodes = _tagged_nodes(mesh, ft, SURFACE)
         self._bed_nodes = _tagged_nodes(mesh, ft, BED)
+        # the bed is the line y = 0 (not a rotated scene): free-surface nodes stay above it
+        flat = bool(np.all(mesh.geometry.x[self._bed_nodes, 1] == 0.0))
+        self._flat_bed = mesh.comm.allreduce(flat, op=MPI.LAND) and mesh.comm.allreduce(
+            len(self._bed_nodes), op=MPI.SUM) > 0
 
     def _slip_bcs(self, Vw):
         """w·n = 0 on every solid side parallel to an axis (w_y on the bed y = 0, w_x on the
@@ -138,6 +142,13 @@ class MeshMotion:
         scale = max(float(np.ptp(old[:, 0])), 1e-300)
         landed = nodes[(x[nodes, 1] <= LANDING_TOLERANCE * scale) & (old[nodes, 1] > 0)]
         x[landed, 1] = 0.0
+        # no free-surface node goes below the rigid bed: one already on it (landed, its
+        # facets not yet retagged) is not held there by w·n = 0 nor seen by the step limit
+        # (height 0); one behind the toe may overshoot through the mesh-velocity smoothing
+        surface = self._surface_nodes if self._flat_bed else self._surface_nodes[:0]
+        below = surface[x[surface, 1] < 0.0]
+        x[below, 1] = 0.0
+        landed = np.union1d(landed, below[old[below, 1] > 0])
         return old, self.mesh.comm.allreduce(len(landed), op=MPI.SUM)
 
     def destroy(self) -> None:

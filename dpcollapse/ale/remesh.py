@@ -1,7 +1,9 @@
 """Remeshing: rebuild the domain from its current boundary and carry (u, p) across.
 
 1. Gather the tagged boundary edges of every rank on rank 0 and chain them into one
-   polygon (``geometry.polygon``). Every existing boundary vertex stays where it is or is
+   polygon (``geometry.polygon``). A free surface folded over itself (a crossing) is
+   untangled first: the smaller loop at each crossing is cut off at the crossing point
+   (``polygon.untangle``; its area is the area change reported). Every existing boundary vertex stays where it is or is
    dropped; none is moved or snapped, so the toe (the bed/free-surface corner) and the
    front position are exactly continuous. Long edges are split on the edge (no area
    change); clustered vertices are dropped only while the total area change stays below
@@ -18,8 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from dpcollapse import compat
-from dpcollapse.geometry.mesher import SURFACE, TaggedMesh, mesh_polygon
-from dpcollapse.geometry.polygon import BoundaryPolygon, chain_boundary, resample
+from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, mesh_polygon
+from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, clip_right, offset_run,
+                                         polygon_is_simple, remove_spikes, resample,
+                                         untangle)
+from dpcollapse.scenes.base import thickness_front
 
 
 @dataclass
@@ -32,24 +37,86 @@ class RemeshReport:
     outside_distance: float
 
 
-def boundary_polygon(tagged: TaggedMesh) -> BoundaryPolygon | None:
-    """The tagged boundary polygon of the (distributed) mesh, on rank 0 (None elsewhere)."""
+def boundary_edges(tagged: TaggedMesh) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The tagged boundary edges (m, 2, 2) and their tags (m,) of every rank, on rank 0
+    (None elsewhere)."""
     mesh, ft = tagged.mesh, tagged.facet_tags
     nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
     edges = mesh.geometry.x[:, :2][nodes] if len(ft.indices) else np.zeros((0, 2, 2))
     gathered = mesh.comm.gather((edges, np.asarray(ft.values)), root=0)
     if mesh.comm.rank != 0:
+        return None, None
+    return (np.concatenate([e for e, _ in gathered]),
+            np.concatenate([t for _, t in gathered]))
+
+
+#: With a film trim, free-surface vertices with an interior angle below this [deg] (hairpin
+#: spikes) are dropped at remeshes.
+SPIKE_ANGLE = 15.0
+
+
+@dataclass
+class _Repaired:
+    polygon: BoundaryPolygon
+    area_before: float      # signed area of the boundary as it was (folds included)
+
+
+def boundary_polygon(tagged: TaggedMesh, trim_thickness: float = 0.0) -> _Repaired | None:
+    """The tagged boundary polygon of the (distributed) mesh, on rank 0 (None elsewhere),
+    repaired (``repair_polygon``), with the signed area of the boundary before repair."""
+    all_edges, all_tags = boundary_edges(tagged)
+    if tagged.mesh.comm.rank != 0:
         return None
-    all_edges = np.concatenate([e for e, _ in gathered])
-    all_tags = np.concatenate([t for _, t in gathered])
-    return chain_boundary(all_edges, all_tags)
+    folded = chain_boundary(all_edges, all_tags, simple=False)
+    return _Repaired(repair_polygon(folded, trim_thickness), folded.area)
+
+
+def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0) -> BoundaryPolygon:
+    """Untangle a folded free surface (``polygon.untangle``) and, with ``trim_thickness``
+    > 0, drop hairpin spikes of the surface (``polygon.remove_spikes``), put the underside
+    of a nose closer to the bed than it on the bed and cut off the film ahead of the last point x_f where the mass is at least that thick
+    (``scenes.base.thickness_front``) by the vertical x = x_f (tagged free surface; the
+    cut face, δ high, slumps a little after each trim). A trim
+    that would leave a non-simple polygon (the mass crossing x = x_f several times) is
+    skipped."""
+    points, tags, _ = untangle(poly.points, poly.edge_tags, poly.corners)
+    if trim_thickness > 0:
+        # hairpin spikes of a crumpled surface (no crossing): a 0° angle in the new mesh
+        points, tags = remove_spikes(points, tags, SURFACE, SPIKE_ANGLE)
+        # the underside of a nose closer to the bed than trim_thickness lands on it
+        e = np.roll(points, -1, axis=0) - points
+        down = (e[:, 0] > 0) & (tags == SURFACE)        # CCW: an edge running right has
+        under = down & np.roll(down, 1)                  # the mass above it
+        close = under & (points[:, 1] > 0) & (points[:, 1] < trim_thickness)
+        if close.any():
+            snapped = points.copy()
+            snapped[close, 1] = 0.0
+            if polygon_is_simple(snapped):
+                points = snapped
+    # free-surface edges lying on the bed y = 0 (a landed nose) become bed
+    on_bed = (points[:, 1] == 0.0) & (np.roll(points[:, 1], -1) == 0.0)
+    tags = np.where((tags == SURFACE) & on_bed, BED, tags)
+    if trim_thickness > 0:
+        x_cut = thickness_front(points, trim_thickness)
+        xmin, xmax = points[:, 0].min(), points[:, 0].max()
+        if xmin < x_cut < xmax:
+            clipped, clipped_tags = clip_right(points, tags, x_cut, SURFACE)
+            if len(clipped) >= 3 and polygon_is_simple(clipped):
+                points, tags = clipped, clipped_tags
+    return BoundaryPolygon(points, tags)
 
 
 def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float | None,
-                  max_area_change: float) -> tuple[TaggedMesh, float, int]:
-    """A new mesh of the current domain; returns (mesh, polygon area change, #vertices)."""
+                  max_area_change: float, trim_thickness: float = 0.0,
+                  conserve_area: bool = False) -> tuple[TaggedMesh, float, int]:
+    """A new mesh of the current domain; returns (mesh, polygon area change, #vertices).
+
+    ``trim_thickness`` [m] > 0 trims a front film thinner than it (``repair_polygon``);
+    ``conserve_area`` puts back the area that untangling, trimming and resampling changed
+    by moving the free surface's interior vertices along their normal by one distance
+    (``polygon.offset_run``; of order ΔA / surface length)."""
     comm = tagged.mesh.comm
-    poly = boundary_polygon(tagged)
+    poly = boundary_polygon(tagged, trim_thickness)
     points = tags = None
     d_area, nverts = 0.0, 0
     if comm.rank == 0:
@@ -58,7 +125,16 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
         def target(tag: int) -> float:
             return hs if tag == SURFACE else mesh_size
 
-        poly, d_area = resample(poly, target, max_area_change)
-        points, tags, nverts = poly.points, poly.edge_tags, len(poly.points)
+        area_before = poly.area_before
+        poly, _ = resample(poly.polygon, target, max_area_change)
+        points, tags = poly.points, poly.edge_tags
+        if conserve_area:
+            # vertices on the bed y = 0 (a landed nose's underside) stay on it
+            moved = offset_run(points, tags, SURFACE, area_before - poly.area,
+                               movable=points[:, 1] > 0)
+            if polygon_is_simple(moved):
+                points = moved
+        d_area = BoundaryPolygon(points, tags).area - area_before
+        nverts = len(points)
     d_area, nverts = comm.bcast((d_area, nverts), root=0)
     return mesh_polygon(comm, points, tags, mesh_size, surface_mesh_size), d_area, nverts

@@ -38,8 +38,10 @@ def make_domain(cfg) -> Domain:
     if cfg.numerics.ale:
         from dpcollapse.domain.moving import MovingDomain
 
-        return MovingDomain(cfg.numerics.remesh_min_angle, cfg.geometry.mesh_size,
-                            cfg.geometry.surface_mesh_size)
+        n = cfg.numerics
+        return MovingDomain(n.remesh_min_angle, cfg.geometry.mesh_size,
+                            cfg.geometry.surface_mesh_size,
+                            n.remesh_film_trim * cfg.geometry.mesh_size, n.remesh_conserve_area)
     from dpcollapse.domain.fixed import FixedDomain
 
     return FixedDomain()

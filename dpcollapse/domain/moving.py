@@ -30,8 +30,10 @@ class MovingDomain:
     moving = True
 
     def __init__(self, remesh_min_angle: float, mesh_size: float,
-                 surface_mesh_size: float | None = None):
+                 surface_mesh_size: float | None = None, trim_thickness: float = 0.0,
+                 conserve_area: bool = False):
         self.remesh_min_angle = remesh_min_angle
+        self.trim_thickness, self.conserve_area = trim_thickness, conserve_area
         self.mesh_size, self.surface_mesh_size = mesh_size, surface_mesh_size
         self.solves = 0
 
@@ -63,11 +65,13 @@ class MovingDomain:
     def remesh(self, tagged, area0: float):
         """A new mesh of the current boundary (``ale.remesh``; with several material regions
         ``domain.regions``, which keeps their interface): (tagged mesh with its cell tags,
-        number of boundary vertices kept). MeshError when the boundary is no longer one
-        simple closed loop (a free surface folded through itself)."""
+        number of boundary vertices kept). The front film thinner than ``trim_thickness`` is
+        trimmed and the area put back with ``conserve_area`` (``ale.remesh.remesh_domain``).
+        MeshError when the boundary is no longer one closed loop."""
         try:
             new, _, nverts = remesh_regions(tagged, self.mesh_size, self.surface_mesh_size,
-                                            REMESH_AREA_TOLERANCE * area0)
-        except ValueError as exc:   # the boundary is no longer one simple closed loop
+                                            REMESH_AREA_TOLERANCE * area0, self.trim_thickness,
+                                            self.conserve_area)
+        except ValueError as exc:   # the boundary is no longer one closed loop
             raise MeshError(f"mesh degenerate: cannot remesh, {exc}") from exc
         return new, nverts

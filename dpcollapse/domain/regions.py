@@ -37,26 +37,31 @@ log = logging.getLogger(__name__)
 
 
 def remesh_regions(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float | None,
-                   max_area_change: float) -> tuple[TaggedMesh, float, int]:
+                   max_area_change: float, trim_thickness: float = 0.0,
+                   conserve_area: bool = False) -> tuple[TaggedMesh, float, int]:
     """A new mesh of the current domain with its cell tags: (mesh, polygon area change,
-    number of boundary vertices); see the module docstring."""
+    number of boundary vertices); see the module docstring. With one region the front
+    film trim and the area restoration of ``ale.remesh.remesh_domain`` apply; with two the
+    boundary is untangled but not trimmed."""
     comm = tagged.mesh.comm
     field = gather_regions(tagged)
     tags = None if field is None else np.rint(field.values[:, 0, 0]).astype(np.int32)
     if tags is None or len(np.unique(tags)) < 2:
-        new, d_area, nverts = remesh_domain(tagged, mesh_size, surface_mesh_size, max_area_change)
+        new, d_area, nverts = remesh_domain(tagged, mesh_size, surface_mesh_size, max_area_change,
+                                            trim_thickness, conserve_area)
         return (new if field is None else carry_regions(tagged, new, field)), d_area, nverts
     poly = boundary_polygon(tagged)
     regions, d_area, nverts = None, 0.0, 0
     if comm.rank == 0:
-        regions, d_area, nverts = _split_regions(poly, field.vertices, tags, mesh_size,
+        regions, d_area, nverts = _split_regions(poly.polygon, field.vertices, tags, mesh_size,
                                                  surface_mesh_size, max_area_change)
     ok = comm.bcast(regions is not None, root=0)
     d_area, nverts = comm.bcast((d_area, nverts), root=0)
     if not ok:
         log.warning("remesh: the material regions do not meet along one interface between two "
                     "boundary vertices; their cells are re-tagged by centroid (staircase)")
-        new, d_area, nverts = remesh_domain(tagged, mesh_size, surface_mesh_size, max_area_change)
+        new, d_area, nverts = remesh_domain(tagged, mesh_size, surface_mesh_size, max_area_change,
+                                            trim_thickness, conserve_area)
         return carry_regions(tagged, new, field), d_area, nverts
     return (mesh_regions(comm, regions if comm.rank == 0 else None, mesh_size, surface_mesh_size),
             d_area, nverts)

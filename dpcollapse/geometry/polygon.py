@@ -20,7 +20,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 __all__ = ["BoundaryPolygon", "chain_boundary", "resample", "polygon_is_simple",
-           "segments_intersect"]
+           "segments_intersect", "untangle", "remove_spikes", "clip_half_plane", "clip_right", "offset_run"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,7 +144,7 @@ def polygon_is_simple(points: np.ndarray, block: int = 512) -> bool:
 
 
 # ----------------------------------------------------------------------------- chaining
-def chain_boundary(edges: np.ndarray, tags: np.ndarray) -> BoundaryPolygon:
+def chain_boundary(edges: np.ndarray, tags: np.ndarray, simple: bool = True) -> BoundaryPolygon:
     """Chain an unordered set of tagged edges into one closed CCW polygon.
 
     ``edges`` (m, 2, 2), ``tags`` (m,). Duplicate edges (same two end points in either
@@ -152,7 +152,8 @@ def chain_boundary(edges: np.ndarray, tags: np.ndarray) -> BoundaryPolygon:
     are an error. The loop starts at a tag-change corner when there is one (the lowest,
     then leftmost such corner, so the result does not depend on the input order).
 
-    Raises ValueError unless the edges form exactly one simple closed loop.
+    Raises ValueError unless the edges form exactly one closed loop, simple unless
+    ``simple`` is False (a folded free surface, for :func:`untangle`).
     """
     edges = np.asarray(edges, dtype=float).reshape(-1, 2, 2)
     tags = np.asarray(tags).reshape(-1)
@@ -200,7 +201,7 @@ def chain_boundary(edges: np.ndarray, tags: np.ndarray) -> BoundaryPolygon:
         v = b if a == v else a
         e = inc[v, 1] if inc[v, 0] == e else inc[v, 0]
     pts = verts[order]
-    if not polygon_is_simple(pts):
+    if simple and not polygon_is_simple(pts):
         raise ValueError(f"boundary loop intersects itself{_where_it_crosses(pts, etag)}")
     if _signed_area(pts) == 0:
         raise ValueError("boundary loop has zero area")
@@ -230,6 +231,169 @@ def _where_it_crosses(points: np.ndarray, edge_tags: np.ndarray) -> str:
             return (f" at ({x:.4f}, {y:.4f}) m: edges tagged {int(edge_tags[i])} and "
                     f"{int(edge_tags[k])} cross (polygon edges {i} and {k} of {n})")
     return ""
+
+
+# ----------------------------------------------------------------------------- untangling
+def _first_crossing(p: np.ndarray) -> tuple[int, int] | None:
+    """The first pair (i, j), i < j, of non-adjacent edges of the closed polygon ``p`` that
+    share a point (edge i joins p[i] and p[i+1]); None when the polygon is simple."""
+    n = len(p)
+    a, b = p, np.roll(p, -1, axis=0)
+    i, j = np.triu_indices(n, k=2)
+    keep = ~((i == 0) & (j == n - 1))
+    i, j = i[keep], j[keep]
+    hit = np.flatnonzero(segments_intersect(a[i], b[i], a[j], b[j]))
+    if hit.size == 0:
+        return None
+    return int(i[hit[0]]), int(j[hit[0]])
+
+
+def _crossing_point(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """A point shared by segments [a, b] and [c, d] (their intersection; for overlapping
+    collinear segments, the end point of one that lies on the other)."""
+    r, s = b - a, d - c
+    den = r[0] * s[1] - r[1] * s[0]
+    if den != 0:
+        t = ((c[0] - a[0]) * s[1] - (c[1] - a[1]) * s[0]) / den
+        return a + min(max(t, 0.0), 1.0) * r
+    for q in (c, d, a, b):
+        return q.copy()
+
+
+def untangle(poly_points: np.ndarray, edge_tags: np.ndarray,
+             fixed: Iterable[int] = ()) -> tuple[np.ndarray, np.ndarray, float]:
+    """Remove the self-intersections of a closed polygon (a free surface folded over
+    itself): at the first crossing of edges i < j at the point X, the polygon splits into
+    the loop p[i+1..j] + X and the rest p[..i] + X + p[j+1..]; the loop with the smaller
+    |area| is dropped (the rest keeps every ``fixed`` point index, e.g. the corners), and
+    so on until the polygon is simple. Returns (points, edge tags, signed area change);
+    the area change is minus the signed area of the dropped loops (a loop traversed
+    clockwise — an inverted fold — had counted negatively)."""
+    pts = np.asarray(poly_points, dtype=float).copy()
+    tags = np.asarray(edge_tags, dtype=np.int64).copy()
+    fixed = np.zeros(len(pts), dtype=bool) if not len(list(fixed)) else np.isin(
+        np.arange(len(pts)), np.asarray(list(fixed)))
+    area0 = _signed_area(pts)
+    while len(pts) > 3:
+        pair = _first_crossing(pts)
+        if pair is None:
+            break
+        i, j = pair
+        n = len(pts)
+        x = _crossing_point(pts[i], pts[(i + 1) % n], pts[j], pts[(j + 1) % n])
+        inner = np.arange(i + 1, j + 1)
+        outer = np.concatenate([np.arange(0, i + 1), np.arange(j + 1, n)])
+        loop_in = np.vstack([pts[inner], x])
+        loop_out = np.vstack([pts[: i + 1], x, pts[j + 1:]])
+        keep_inner = (fixed[inner].sum() > fixed[outer].sum()
+                      or (fixed[inner].sum() == fixed[outer].sum()
+                          and abs(_signed_area(loop_in)) > abs(_signed_area(loop_out))))
+        if keep_inner:   # edges i+1..j-1, then j (up to X), then X -> p[i+1] with edge i's tag
+            pts = loop_in
+            tags = np.concatenate([tags[i + 1: j + 1], [tags[i]]])
+            fixed = np.concatenate([fixed[inner], [False]])
+        else:            # edges ..i (p[i] -> X), then X -> p[j+1] with edge j's tag
+            pts = loop_out
+            tags = np.concatenate([tags[: i + 1], [tags[j]], tags[j + 1:]])
+            fixed = np.concatenate([fixed[: i + 1], [False], fixed[j + 1:]])
+        # a crossing at a vertex leaves a zero-length edge: drop the repeated point
+        same = np.all(pts == np.roll(pts, -1, axis=0), axis=1)
+        if same.any():
+            pts, tags, fixed = pts[~same], tags[~same], fixed[~same]
+    return pts, tags, _signed_area(pts) - area0
+
+
+def remove_spikes(points: np.ndarray, edge_tags: np.ndarray, tag: int,
+                  min_angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """Drop the vertices inside runs of ``tag`` whose interior angle (between the edges to
+    their two neighbours) is below ``min_angle`` [deg] — hairpin spikes of a crumpled free
+    surface that do not cross anything, so :func:`untangle` leaves them — one at a time,
+    sharpest first, as long as the polygon stays simple. Returns (points, edge tags)."""
+    pts = np.asarray(points, dtype=float)
+    tags = np.asarray(edge_tags, dtype=np.int64)
+    while len(pts) > 3:
+        a, b = np.roll(pts, 1, axis=0) - pts, np.roll(pts, -1, axis=0) - pts
+        cos = np.einsum("ij,ij->i", a, b) / np.maximum(
+            np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1), 1e-300)
+        angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+        inner = (tags == tag) & (np.roll(tags, 1) == tag)
+        candidates = np.flatnonzero(inner & (angle < min_angle))
+        removed = False
+        for i in candidates[np.argsort(angle[candidates])]:
+            keep = np.arange(len(pts)) != i
+            if polygon_is_simple(pts[keep]):
+                pts, tags = pts[keep], tags[keep]    # edge i-1 now runs to point i+1
+                removed = True
+                break
+        if not removed:
+            break
+    return pts, tags
+
+
+def clip_half_plane(points: np.ndarray, edge_tags: np.ndarray, origin, normal,
+                    cut_tag: int) -> tuple[np.ndarray, np.ndarray]:
+    """The part n·(p − origin) ≤ 0 of a closed polygon (Sutherland–Hodgman against one
+    half-plane): kept pieces of edges keep their tags, the new edges along the line get
+    ``cut_tag``. Returns (points, edge tags); the caller checks simplicity (a polygon that
+    crosses the line several times gives edges along it)."""
+    pts = np.asarray(points, dtype=float)
+    tags = np.asarray(edge_tags, dtype=np.int64)
+    dist = (pts - np.asarray(origin, dtype=float)) @ np.asarray(normal, dtype=float)
+    n = len(pts)
+    out, out_tags = [], []
+    for i in range(n):
+        j = (i + 1) % n
+        ina, inb = dist[i] <= 0, dist[j] <= 0
+        if ina:
+            out.append(pts[i])
+            out_tags.append(int(tags[i]))       # edge a -> b (or a -> crossing)
+        if ina != inb:
+            s_ = dist[i] / (dist[i] - dist[j])
+            out.append(pts[i] + s_ * (pts[j] - pts[i]))
+            # leaving: from the crossing along the cut line; entering: crossing -> b
+            out_tags.append(cut_tag if ina else int(tags[i]))
+    pts_out, tags_out = np.array(out), np.array(out_tags, dtype=np.int64)
+    same = np.all(pts_out == np.roll(pts_out, -1, axis=0), axis=1)
+    return pts_out[~same], tags_out[~same]
+
+
+def clip_right(points: np.ndarray, edge_tags: np.ndarray, x_cut: float,
+               cut_tag: int) -> tuple[np.ndarray, np.ndarray]:
+    """The part x ≤ ``x_cut`` of a closed polygon (``clip_half_plane``)."""
+    return clip_half_plane(points, edge_tags, (x_cut, 0.0), (1.0, 0.0), cut_tag)
+
+
+def offset_run(points: np.ndarray, edge_tags: np.ndarray, tag: int,
+               area_change: float, movable: np.ndarray | None = None) -> np.ndarray:
+    """Move the vertices inside the runs of edges tagged ``tag`` (both adjacent edges of
+    that tag; corners stay; only where ``movable``, a boolean mask, when given) along their outward normal (the mean of the two edge normals
+    of a CCW polygon) by one distance s chosen so that the signed area changes by
+    ``area_change`` (secant steps on A(s), which is quadratic in s, to round-off)."""
+    pts = np.asarray(points, dtype=float)
+    tags = np.asarray(edge_tags)
+    inner = (tags == tag) & (np.roll(tags, 1) == tag)        # vertex i: edges i-1 and i
+    e = np.roll(pts, -1, axis=0) - pts
+    normal = np.stack([e[:, 1], -e[:, 0]], axis=1)            # outward for a CCW polygon
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    vn = normal + np.roll(normal, 1, axis=0)
+    vn /= np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-300)
+    vn[~inner if movable is None else ~(inner & movable)] = 0.0
+    area0 = _signed_area(pts)
+
+    def change(s: float) -> float:
+        return _signed_area(pts + s * vn) - area0
+
+    length = float(np.sum(np.linalg.norm(e, axis=1)[tags == tag]))
+    if not inner.any() or length == 0 or area_change == 0:
+        return pts.copy()
+    s0, s1 = 0.0, area_change / length
+    f0, f1 = -area_change, change(s1) - area_change
+    for _ in range(20):
+        if f1 == f0 or abs(f1) <= 1e-13 * abs(area0):
+            break
+        s0, s1 = s1, s1 - f1 * (s1 - s0) / (f1 - f0)
+        f0, f1 = f1, change(s1) - area_change
+    return pts + s1 * vn
 
 
 # ----------------------------------------------------------------------------- resampling

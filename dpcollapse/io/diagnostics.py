@@ -9,6 +9,7 @@ from pathlib import Path
 COLUMNS = [
     "step", "t", "dt", "dt_limit", "courant", "iterations", "residual", "front", "max_height", "kinetic_energy",
     "area", "max_speed", "min_angle", "min_detJ", "ill_posed_fraction", "remeshes", "wall_time",
+    "thick_front", "landings",
 ]
 
 
@@ -29,7 +30,8 @@ class DiagnosticsWriter:
         # the kept rows go to a new file that replaces the old one whole
         tmp = self.path.with_name(self.path.name + ".tmp")
         with tmp.open("w", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=self.columns, extrasaction="ignore")
+            # rows of an older file lack the newer columns: nan
+            writer = csv.DictWriter(f, fieldnames=self.columns, extrasaction="ignore", restval="nan")
             writer.writeheader()
             writer.writerows(rows)
         os.replace(tmp, self.path)

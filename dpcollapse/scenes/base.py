@@ -129,6 +129,57 @@ def top_extent(x: np.ndarray) -> tuple[float, float]:
     return float(x[:, 0].max()), float(x[:, 1].max())
 
 
+#: The thickness front: the furthest x where the mass is thicker than
+#: max(FILM_GRAINS · d, FILM_MESH_FRACTION · h) (d the grain diameter, h the mesh size).
+FILM_GRAINS = 3.0
+FILM_MESH_FRACTION = 0.25
+
+
+def film_threshold(grain_diameter: float, mesh_size: float) -> float:
+    """Thickness [m] below which the end of a deposit counts as a film, not the front:
+    max(3 d, h/4) — a few grains (a thinner layer is not a continuum), and a fraction of the
+    mesh size (a thinner layer is not resolved)."""
+    return max(FILM_GRAINS * grain_diameter, FILM_MESH_FRACTION * mesh_size)
+
+
+def vertical_thickness(points: np.ndarray, x: np.ndarray, side: int = 1) -> np.ndarray:
+    r"""Total vertical thickness h(x) = ∫ 1_Ω(x, y) dy of the mass bounded by the closed
+    counter-clockwise polygon ``points`` (n, 2), at each abscissa of ``x``.
+
+    For a CCW polygon h(x) = Σ_e −sign(Δx_e) y_e(x) over the edges e that span x (edges
+    running right are below the mass, edges running left above it), so an overhang counts
+    its material only. ``side`` = +1 gives the right limit h(x⁺) (an edge spans x when
+    x_min ≤ x < x_max), −1 the left limit h(x⁻) (x_min < x ≤ x_max).
+    """
+    p = np.asarray(points, dtype=float)
+    a, b = p, np.roll(p, -1, axis=0)
+    dx = b[:, 0] - a[:, 0]
+    lo, hi = np.minimum(a[:, 0], b[:, 0]), np.maximum(a[:, 0], b[:, 0])
+    xs = np.asarray(x, dtype=float)[:, None]
+    spans = (lo <= xs) & (xs < hi) if side > 0 else (lo < xs) & (xs <= hi)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(dx != 0, (xs - a[:, 0]) / np.where(dx != 0, dx, 1.0), 0.0)
+    y = a[:, 1] + s * (b[:, 1] - a[:, 1])
+    return np.sum(np.where(spans, -np.sign(dx) * y, 0.0), axis=1)
+
+
+def thickness_front(points: np.ndarray, threshold: float) -> float:
+    """The furthest x (rightwards) where the vertical thickness of the mass bounded by the
+    CCW polygon ``points`` is at least ``threshold`` [m]; h(x) is linear between vertex
+    abscissae, so the crossing h = threshold is exact. −inf when the mass is nowhere that
+    thick."""
+    xs = np.unique(np.asarray(points, dtype=float)[:, 0])
+    right = vertical_thickness(points, xs, +1)   # h just right of each vertex abscissa
+    left = vertical_thickness(points, xs, -1)    # h just left of it
+    for k in range(len(xs) - 1, -1, -1):        # from the right: interval (xs[k], xs[k+1]),
+        if k + 1 < len(xs) and right[k] >= threshold:  # then the point xs[k]
+            h0, h1 = right[k], left[k + 1]       # h falls through the threshold inside
+            return float(xs[k] + (h0 - threshold) / (h0 - h1) * (xs[k + 1] - xs[k]))
+        if left[k] >= threshold:                 # thick up to xs[k] (a step down there)
+            return float(xs[k])
+    return -np.inf
+
+
 class PolygonScene:
     """Mesh and .msh output of a scene that is one tagged polygon (``polygon()`` on rank 0),
     or the gmsh file ``mesh_file`` when one is given. The scene dataclass provides

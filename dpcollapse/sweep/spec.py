@@ -51,6 +51,7 @@ SUMMARY_KEYS = (
     "t", "steps", "remeshes", "front", "max_height", "area", "area_drift", "kinetic_energy",
     "min_angle", "min_detJ", "mean_iterations", "max_iterations", "flow_solves",
     "flow_factorizations", "mesh_velocity_factorizations", "krylov_iterations",
+    "thick_front", "film_threshold", "landings",
 )
 
 

@@ -412,7 +412,9 @@ def test_the_documented_sweep_file_is_valid(tmp_path):
 
 
 def test_column_runout_example_is_valid():
-    """configs/sweeps/column_runout.yaml: six aspect ratios of the column scene, all valid."""
+    """configs/sweeps/column_runout.yaml: eight aspect ratios (0.5 to 10) of the column
+    scene × two bed conditions × two mesh sizes, all valid."""
     sw = load_sweep(ROOT / "configs" / "sweeps" / "column_runout.yaml")
-    heights = sorted(c.config["geometry"]["height"] for c in sw.cases)
-    assert heights == [0.035, 0.07, 0.14, 0.21, 0.28, 0.42]
+    heights = sorted({c.config["geometry"]["height"] for c in sw.cases})
+    assert heights == [0.05, 0.08, 0.142, 0.2, 0.3, 0.45, 0.626, 1.0]
+    assert len(sw.cases) == 32

@@ -219,3 +219,57 @@ def test_resample_keeps_vertex_whose_removal_would_self_intersect():
     assert polygon_is_simple(new.points)
     assert any(p.tolist() == bump for p in new.points)
     assert len(new) == 8  # all collinear surface points went, the bump stayed
+
+
+def test_untangle_cuts_fold_at_crossing():
+    """A square whose top edge has a spike folded back across it: the spike's loop is cut
+    off at the crossing and the area change is minus the loop's signed area."""
+    from dpcollapse.geometry.polygon import untangle
+
+    # top runs right to left; (0.3, 1.2) -> (0.8, 0.9) crosses the edge (1, 1) -> (0.6, 1)
+    pts = np.array([[0, 0], [1, 0], [1, 1], [0.6, 1], [0.3, 1.2], [0.8, 0.9], [0.2, 1], [0, 1]],
+                   dtype=float)
+    tags = np.array([1, 3, 3, 3, 3, 3, 3, 2])
+    assert not polygon_is_simple(pts)
+    out, out_tags, d_area = untangle(pts, tags, fixed=[0, 1, 7])
+    assert polygon_is_simple(out)
+    assert len(out) == len(out_tags)
+    area = 0.5 * np.sum(out[:, 0] * np.roll(out[:, 1], -1) - np.roll(out[:, 0], -1) * out[:, 1])
+    before = 0.5 * np.sum(pts[:, 0] * np.roll(pts[:, 1], -1) - np.roll(pts[:, 0], -1) * pts[:, 1])
+    assert d_area == pytest.approx(area - before)
+    for corner in ([0, 0], [1, 0], [0, 1]):
+        assert any(np.allclose(p, corner) for p in out)
+    # nothing to do on a simple polygon
+    sq = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=float)
+    same, _, zero = untangle(sq, np.array([1, 3, 3, 2]))
+    assert np.array_equal(same, sq) and zero == 0
+
+
+def test_clip_right_and_offset_run():
+    from dpcollapse.geometry.polygon import clip_right, offset_run
+
+    pts = np.array([[0, 0], [2, 0], [2, 0.1], [0, 1]], dtype=float)
+    tags = np.array([1, 3, 3, 2])
+    out, out_tags = clip_right(pts, tags, 1.0, 3)
+    assert out.tolist() == [[0, 0], [1, 0], [1, 0.55], [0, 1]]
+    assert out_tags.tolist() == [1, 3, 3, 2]
+    # put back 0.1 of area by moving the surface's interior vertices: exact to round-off
+    sq = np.array([[0, 0], [1, 0], [1, 1], [0.5, 1], [0, 1]], dtype=float)
+    moved = offset_run(sq, np.array([1, 3, 3, 3, 2]), 3, 0.1)
+    area = 0.5 * np.sum(moved[:, 0] * np.roll(moved[:, 1], -1) - np.roll(moved[:, 0], -1) * moved[:, 1])
+    assert area == pytest.approx(1.1, rel=1e-12)
+    assert np.array_equal(moved[[0, 1, 4]], sq[[0, 1, 4]])    # corners stay
+    assert moved[3, 1] > 1.0
+
+
+def test_remove_spikes_drops_a_hairpin():
+    """A thin spike on the top edge (interior angle ~2°) goes; the square's corners stay."""
+    from dpcollapse.geometry.polygon import remove_spikes
+
+    pts = np.array([[0, 0], [1, 0], [1, 1], [0.51, 1], [0.5, 1.3], [0.49, 1], [0, 1]], dtype=float)
+    tags = np.array([1, 3, 3, 3, 3, 3, 2])
+    out, out_tags = remove_spikes(pts, tags, 3, 15.0)
+    assert [0.5, 1.3] not in out.tolist()
+    assert len(out) == 6 and len(out_tags) == 6 and polygon_is_simple(out)
+    same, _ = remove_spikes(out, out_tags, 3, 15.0)
+    assert np.array_equal(same, out)

@@ -1,0 +1,95 @@
+"""Plots of the column-collapse report (docs/benchmarks/2026-12-01-column.md).
+
+    python scripts/column_plots.py front RUN_DIR OUT.png      # front, top height vs t sqrt(g/H0)
+    python scripts/column_plots.py law SWEEP_DIR OUT.png      # runout law from sweep.csv
+
+``law`` also prints the fitted power laws ΔL/L0 = c a^n on a ≤ 3 and a ≥ 3 and
+H_f/L0 = c a^n on a ≥ 0.7, per bed condition and mesh size, from the cases at rest.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+L0_KEY, H0_KEY = "geometry.base_length", "geometry.height"
+
+
+def front_plot(run_dir: Path, out: Path) -> None:
+    cfg = json.loads((run_dir / "run.json").read_text())["config"]
+    h0, l0, g = cfg["geometry"]["height"], cfg["geometry"]["base_length"], cfg["material"]["gravity"]
+    with (run_dir / "diagnostics.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    t = np.array([float(r["t"]) for r in rows]) * np.sqrt(g / h0)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for key, label in (("front", "mass front"), ("thick_front", "thickness front")):
+        ax.plot(t, [(float(r[key]) - l0) / h0 for r in rows], label=f"({label} − L0)/H0")
+    ax.plot(t, [float(r["max_height"]) / h0 for r in rows], label="top height / H0")
+    ax.set_xlabel("t √(g/H0)")
+    ax.set_title(f"column a = {h0 / l0:.3g}, mesh {cfg['geometry']['mesh_size']} m")
+    ax.legend()
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+
+
+def fit(a: np.ndarray, y: np.ndarray) -> tuple[float, float] | None:
+    """(prefactor c, exponent n) of y = c a^n by least squares in log-log; None if < 2 points."""
+    ok = y > 0
+    if ok.sum() < 2:
+        return None
+    n, logc = np.polyfit(np.log(a[ok]), np.log(y[ok]), 1)
+    return float(np.exp(logc)), float(n)
+
+
+def law_plot(sweep_dir: Path, out: Path) -> None:
+    with (sweep_dir / "sweep.csv").open() as f:
+        rows = [r for r in csv.DictReader(f) if r.get("status") == "at_rest"]
+    l0 = 0.1
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in rows:
+        groups.setdefault((r["boundary.bed_condition"], r["geometry.mesh_size"]), []).append(r)
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
+    aa = np.logspace(np.log10(0.4), np.log10(12), 50)
+    for (bed, h), rs in sorted(groups.items()):
+        a = np.array([float(r[H0_KEY]) / l0 for r in rs])
+        order = np.argsort(a)
+        a = a[order]
+        run = np.array([(float(rs[i]["thick_front"]) - l0) / l0 for i in order])
+        run_mass = np.array([(float(rs[i]["front"]) - l0) / l0 for i in order])
+        hf = np.array([float(rs[i]["max_height"]) / l0 for i in order])
+        label = f"{bed}, h = {h} m"
+        ax1.loglog(a, run, "o-", label=label + " (thickness front)")
+        ax1.loglog(a, run_mass, "x:", label=label + " (mass front)")
+        ax2.loglog(a, hf, "o-", label=label)
+        for name, x, y, cut, above in (("ΔL/L0 thick", a, run, 3.0, False), ("ΔL/L0 thick", a, run, 3.0, True),
+                                       ("ΔL/L0 mass", a, run_mass, 3.0, False),
+                                       ("ΔL/L0 mass", a, run_mass, 3.0, True),
+                                       ("H_f/L0", a, hf, 0.7, True)):
+            sel = x >= cut if above else x <= cut
+            p = fit(x[sel], y[sel])
+            side = f"a ≥ {cut}" if above else f"a ≤ {cut}"
+            print(f"{bed:8s} h={h:5s} {name:12s} {side:8s}: "
+                  + (f"{p[0]:.2f} a^{p[1]:.2f} ({sel.sum()} points)" if p else f"{sel.sum()} point(s), no fit"))
+    ax1.fill_between(aa, 1.2 * aa, 1.8 * aa, where=aa <= 3, color="0.85", label="1.2a – 1.8a (a ≤ 3)")
+    ax1.fill_between(aa, 1.9 * aa ** (2 / 3), 2.3 * aa ** (2 / 3), where=aa >= 2.8, color="0.7",
+                     label="1.9a^(2/3) – 2.3a^(2/3)")
+    ax2.plot(aa[aa <= 0.7], aa[aa <= 0.7], "k--", label="H_f/L0 = a")
+    ax2.plot(aa[aa >= 0.7], 0.74 * (aa[aa >= 0.7] / 0.74) ** (1 / 3), "k:", label="∝ a^(1/3) (through 0.74)")
+    ax1.set_xlabel("a = H0/L0"), ax1.set_ylabel("ΔL/L0"), ax1.legend(fontsize=6), ax1.grid(alpha=0.3)
+    ax2.set_xlabel("a = H0/L0"), ax2.set_ylabel("H_f/L0"), ax2.legend(fontsize=6), ax2.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+
+
+if __name__ == "__main__":
+    kind, src, dst = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[3])
+    (front_plot if kind == "front" else law_plot)(src, dst)
