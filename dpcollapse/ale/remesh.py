@@ -22,7 +22,7 @@ import numpy as np
 from dpcollapse import compat
 from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, mesh_polygon
 from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, clip_right, offset_run,
-                                         polygon_is_simple, remove_spikes, resample,
+                                         polygon_is_simple, remove_spikes, resample, where_it_crosses,
                                          untangle)
 from dpcollapse.scenes.base import thickness_front
 
@@ -72,14 +72,21 @@ def boundary_polygon(tagged: TaggedMesh, trim_thickness: float = 0.0) -> _Repair
 
 
 def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0) -> BoundaryPolygon:
-    """Untangle a folded free surface (``polygon.untangle``) and, with ``trim_thickness``
-    > 0, drop hairpin spikes of the surface (``polygon.remove_spikes``), put the underside
+    """With ``trim_thickness`` > 0: untangle a folded free surface (``polygon.untangle``),
+    drop hairpin spikes of the surface (``polygon.remove_spikes``), put the underside
     of a nose closer to the bed than it on the bed and cut off the film ahead of the last point x_f where the mass is at least that thick
     (``scenes.base.thickness_front``) by the vertical x = x_f (tagged free surface; the
     cut face, δ high, slumps a little after each trim). A trim
     that would leave a non-simple polygon (the mass crossing x = x_f several times) is
     skipped."""
-    points, tags, _ = untangle(poly.points, poly.edge_tags, poly.corners)
+    if trim_thickness <= 0:
+        # no repair asked for: a surface folded through itself ends the run (exit 4, where)
+        if not polygon_is_simple(poly.points):
+            raise ValueError("boundary loop intersects itself"
+                             + where_it_crosses(poly.points, poly.edge_tags))
+        points, tags = poly.points, poly.edge_tags
+    else:
+        points, tags, _ = untangle(poly.points, poly.edge_tags, poly.corners)
     if trim_thickness > 0:
         # hairpin spikes of a crumpled surface (no crossing): a 0° angle in the new mesh
         points, tags = remove_spikes(points, tags, SURFACE, SPIKE_ANGLE)

@@ -202,7 +202,7 @@ def chain_boundary(edges: np.ndarray, tags: np.ndarray, simple: bool = True) -> 
         e = inc[v, 1] if inc[v, 0] == e else inc[v, 0]
     pts = verts[order]
     if simple and not polygon_is_simple(pts):
-        raise ValueError(f"boundary loop intersects itself{_where_it_crosses(pts, etag)}")
+        raise ValueError(f"boundary loop intersects itself{where_it_crosses(pts, etag)}")
     if _signed_area(pts) == 0:
         raise ValueError("boundary loop has zero area")
     if _signed_area(pts) < 0:
@@ -215,7 +215,7 @@ def chain_boundary(edges: np.ndarray, tags: np.ndarray, simple: bool = True) -> 
     return BoundaryPolygon(pts, etag)
 
 
-def _where_it_crosses(points: np.ndarray, edge_tags: np.ndarray) -> str:
+def where_it_crosses(points: np.ndarray, edge_tags: np.ndarray) -> str:
     """' at (x, y): edges tagged a and b' for the first pair of non-adjacent edges (in
     polygon order) that share a point; '' if none is found (an edge folding back)."""
     a, b = points, np.roll(points, -1, axis=0)
