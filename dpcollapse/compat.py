@@ -409,10 +409,21 @@ def write_xdmf_step(comm: MPI.Comm, filename: str, mesh, functions, t: float) ->
     The functions must live on spaces that XDMF stores faithfully (P1 or DG0): DOLFINx 0.5
     would silently sample a P2 function at vertices.
     """
-    with XDMFFile(comm, filename, "w") as f:
+    f = XDMFFile(comm, filename, "w")
+    try:
         f.write_mesh(mesh)
         for fn in functions:
             f.write_function(fn, t)
+        f.close()
+    except BaseException:
+        # a file whose HDF5 write failed crashes (SIGSEGV) when it is destroyed: keep it
+        # alive; the command leaves without finalizers after an HDF5 failure (cli.entry)
+        _FAILED_XDMF_FILES.append(f)
+        raise
+
+
+#: XDMF files whose write failed, never destroyed (``write_xdmf_step``)
+_FAILED_XDMF_FILES: list = []
 
 
 def has_adios2() -> bool:

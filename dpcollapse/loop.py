@@ -28,7 +28,7 @@ class Discretization(Protocol):
     iterations, residual, message and optionally ``dt``, the step actually taken when an
     explicit stage bound cut it; accept_step, reset_iterate, snapshot/transfer,
     copy_state_from, ``iteration_scale``, ``solver`` with its factorization and Krylov
-    counters). ``measures()`` returns at least front, max_height [m], kinetic_energy,
+    counters). ``measures()`` returns at least front, thick_front, max_height [m], kinetic_energy,
     gravity_moment [J/m], area [m²], max_speed [m/s], min_angle [deg], min_detJ,
     ill_posed_fraction (NaN where the model has none), the ``extra_measures`` (extra
     diagnostics columns and run.json entries) and optionally ``at_rest`` (the state is an
@@ -38,6 +38,8 @@ class Discretization(Protocol):
     mesh: object
     tagged: object
     extra_measures: tuple[str, ...]
+    #: the thickness [m] above which the mass counts for the thickness front ``thick_front``
+    film_threshold: float
 
     def measures(self) -> dict: ...
 

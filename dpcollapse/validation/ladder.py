@@ -200,7 +200,7 @@ def run_2d(cfg: Config, run_dir: Path, grid: Grid) -> Rung:
         summary = {"remeshes": sim.state.remeshes, "area_drift": math.nan, "front": math.nan}
         status = f"failed: {exc}"
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    poly = boundary_polygon(sim.disc.tagged).points
+    poly = boundary_polygon(sim.disc.tagged).polygon.points
     diag = read_diagnostics(run_dir / "diagnostics.csv")
     history = np.column_stack([[0.0] + diag.get("t", []),
                                [cfg.geometry.base_length] + diag.get("front", [])])

@@ -150,6 +150,8 @@ class SavageHutterDiscretization:
         self.grid, self.model = setup.grid, setup.model
         self.flow = SavageHutterFlow(setup)
         self.tagged = None
+        #: the thickness that makes the front [m] (run.json, beside the 2D model's)
+        self.film_threshold = self.model.front_threshold
         self.mesh = compat.create_interval_mesh(comm, self.grid.edges)
         S0 = compat.scalar_space(self.mesh, 0, "DG")
         self.out_thickness = fem.Function(S0, name="thickness")
@@ -176,15 +178,18 @@ class SavageHutterDiscretization:
         return 1.0 / hard if hard > 0 and math.isfinite(hard) else 0.0
 
     def measures(self) -> dict:
-        """Front (furthest x where h crosses model.front_threshold), max height, kinetic
+        """Front (furthest x where h crosses model.front_threshold; also the thickness front
+        ``thick_front`` of the 2D model), max height, kinetic
         energy ρ Σ α h ū²/2 Δx [J/m], gravity's moment ρ Σ g (sinθ x h − cosθ h²/2) Δx [J/m],
         mass [m²], max |ū|, whether the state is an exact rest state (``at_rest``)."""
         flow, grid = self.flow, self.grid
         h, u = flow.h, flow.velocity()
         dx, rho = grid.dx, self.density
         front = front_position(h, grid, self.model.front_threshold)
+        front = float(front) if math.isfinite(front) else grid.x_min
         return {
-            "front": float(front) if math.isfinite(front) else grid.x_min,
+            "front": front,
+            "thick_front": front,     # the front is already a thickness threshold
             "max_height": float(np.max(h)),
             "kinetic_energy": float(0.5 * rho * self.model.shape_factor * np.sum(h * u * u) * dx),
             "gravity_moment": float(rho * np.sum(self._g_sin * grid.centers * h
