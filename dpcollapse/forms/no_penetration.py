@@ -36,7 +36,7 @@ def normal_stress(viscosity, u, p, n):
 
 def nitsche_no_penetration(viscosity, u, p, v, q, n, ds, gamma=NITSCHE_PARAMETER):
     """−∫ σ_nn(u,p)(v·n) − ∫ σ_nn(v,q)(u·n) + ∫ γ S/h (u·n)(v·n) on the measure ``ds``."""
-    h = ufl.CellDiameter(n.ufl_domain())
+    h = ufl.CellDiameter(ds.ufl_domain())
     un, vn = ufl.dot(u, n), ufl.dot(v, n)
     return (-normal_stress(viscosity, u, p, n) * vn - normal_stress(viscosity, v, q, n) * un
             + gamma * viscosity / h * un * vn) * ds
@@ -44,5 +44,5 @@ def nitsche_no_penetration(viscosity, u, p, v, q, n, ds, gamma=NITSCHE_PARAMETER
 
 def penalty_no_penetration(viscosity, u, v, n, ds, gamma=NITSCHE_PARAMETER):
     """∫ γ S/h (u·n)(v·n) ds: the penalty alone (inconsistent; for comparison)."""
-    h = ufl.CellDiameter(n.ufl_domain())
+    h = ufl.CellDiameter(ds.ufl_domain())
     return gamma * viscosity / h * ufl.dot(u, n) * ufl.dot(v, n) * ds

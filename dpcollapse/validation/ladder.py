@@ -430,7 +430,8 @@ def plot(rows: list[dict], series: dict, path: Path) -> None:
     ax.set_xlabel("t [s]")
     ax.set_ylabel("front [m]")
     ax.set_title("dam break on a 22° slope (δ = 21°): front", fontsize=9)
-    ax.legend(fontsize=7)
+    if ax.get_legend_handles_labels()[0]:       # no dam break in a --quick ladder
+        ax.legend(fontsize=7)
 
     ax = axes[0, 2]
     for i, name in enumerate(n for n in ("rigid", "column_a2", "column_a6", "dam_break_slope22",
