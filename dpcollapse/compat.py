@@ -416,9 +416,15 @@ def write_xdmf_step(comm: MPI.Comm, filename: str, mesh, functions, t: float) ->
             f.write_function(fn, t)
         f.close()
     except BaseException:
-        # a file whose HDF5 write failed crashes (SIGSEGV) when it is destroyed: keep it
-        # alive; the command leaves without finalizers after an HDF5 failure (cli.entry)
+        # a file whose HDF5 write failed: close it now (HDF5 2.x reports the failed flush
+        # here, inside the caller's stderr capture, not later), but keep the object alive —
+        # DOLFINx 0.5's destructor of such a file crashes (SIGSEGV); the command leaves
+        # without finalizers after an HDF5 failure (cli.entry)
         _FAILED_XDMF_FILES.append(f)
+        try:
+            f.close()
+        except Exception:
+            pass
         raise
 
 

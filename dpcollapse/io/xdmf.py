@@ -87,8 +87,19 @@ def check_output_function(fn) -> None:
     )
 
 
+#: what HDF5 prints when a call fails (also when the caller does not raise: DOLFINx 0.11
+#: with HDF5 2.x reports a failed flush of a full disk only on stderr)
+HDF5_ERROR = "Error detected in HDF5"
+
+
 class _Captured:
     text = ""
+    sink = None
+
+    def so_far(self) -> str:
+        """What has been captured up to now (inside the block)."""
+        fd = self.sink.fileno()
+        return os.pread(fd, os.fstat(fd).st_size, 0).decode(errors="replace")
 
     def first_line(self, containing: str) -> str:
         """The first line of the captured text that contains ``containing``, stripped."""
@@ -107,6 +118,7 @@ def c_stderr_captured():
     saved = os.dup(2)
     with tempfile.TemporaryFile(mode="w+b") as sink:
         os.dup2(sink.fileno(), 2)
+        captured.sink = sink
         failed = False
         try:
             yield captured
@@ -219,6 +231,8 @@ class XDMFTimeSeries:
         try:
             with c_stderr_captured() as captured:   # HDF5 prints its error stack there
                 compat.write_xdmf_step(self.comm, str(step_xdmf), mesh, functions, t)
+                if HDF5_ERROR in captured.so_far():
+                    raise RuntimeError("HDF5 reported an error (its stack is on stderr)")
         except RuntimeError as exc:  # HDF5 reports a full disk or a lost file this way
             global hdf5_write_failed
             hdf5_write_failed = True
