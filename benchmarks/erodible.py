@@ -27,16 +27,11 @@ PROFILE_EVERY = 0.05
 
 
 def _edges(tagged):
-    """(edges (m, 2, 2), tags (m,)) of the boundary, gathered on rank 0."""
-    from dpcollapse import compat
+    """(edges (m, 2, 2), tags (m,)) of the boundary on rank 0, None elsewhere."""
+    from dpcollapse.geometry.mesher import boundary_edges
 
-    mesh, ft = tagged.mesh, tagged.facet_tags
-    nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
-    edges = mesh.geometry.x[:, :2][nodes] if len(ft.indices) else np.zeros((0, 2, 2))
-    parts = mesh.comm.gather((edges, np.asarray(ft.values)), root=0)
-    if mesh.comm.rank != 0:
-        return None
-    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    edges, tags = boundary_edges(tagged)
+    return None if edges is None else (edges, tags)
 
 
 def run(config: str, out: str, overrides: list[str]) -> int:

@@ -195,7 +195,7 @@ class Discretization:
         (``scenes.base.thickness_front`` on the boundary polygon, gathered on rank 0):
         the front of a deposit that ends in a thin film; −inf on a boundary that does not
         chain into one loop."""
-        from dpcollapse.ale.remesh import boundary_edges
+        from dpcollapse.geometry.mesher import boundary_edges
         from dpcollapse.geometry.polygon import chain_boundary
 
         edges, tags = boundary_edges(self.tagged)

@@ -19,8 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dpcollapse import compat
-from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, mesh_polygon
+from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, boundary_edges, mesh_polygon
 from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, clip_right, offset_run,
                                          polygon_is_simple, remove_spikes, resample, where_it_crosses,
                                          untangle)
@@ -35,19 +34,6 @@ class RemeshReport:
     cells_after: int
     boundary_vertices: int
     outside_distance: float
-
-
-def boundary_edges(tagged: TaggedMesh) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """The tagged boundary edges (m, 2, 2) and their tags (m,) of every rank, on rank 0
-    (None elsewhere)."""
-    mesh, ft = tagged.mesh, tagged.facet_tags
-    nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
-    edges = mesh.geometry.x[:, :2][nodes] if len(ft.indices) else np.zeros((0, 2, 2))
-    gathered = mesh.comm.gather((edges, np.asarray(ft.values)), root=0)
-    if mesh.comm.rank != 0:
-        return None, None
-    return (np.concatenate([e for e, _ in gathered]),
-            np.concatenate([t for _, t in gathered]))
 
 
 #: With a film trim, free-surface vertices with an interior angle below this [deg] (hairpin

@@ -14,9 +14,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from dpcollapse import compat
 from dpcollapse.errors import MeshError
 from dpcollapse.geometry.curvature import local_surface_tension_runs
+from dpcollapse.geometry.mesher import boundary_edges
 from dpcollapse.geometry.polygon import chain_boundary
 
 #: Distance [m] under which a dof coordinate is taken to be a surface node (the same
@@ -28,14 +28,10 @@ def free_surface_runs(tagged, surface_tags) -> list[np.ndarray] | None:
     """The runs of ``surface_tags`` along the boundary polygon, as (k, 2) point arrays in
     counter-clockwise order, on rank 0 (None elsewhere). ValueError (on rank 0) when the
     boundary is not one simple closed loop."""
-    mesh, ft = tagged.mesh, tagged.facet_tags
-    nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
-    edges = mesh.geometry.x[:, :2][nodes] if len(ft.indices) else np.zeros((0, 2, 2))
-    gathered = mesh.comm.gather((edges, np.asarray(ft.values)), root=0)
-    if mesh.comm.rank != 0:
+    edges, tags = boundary_edges(tagged)
+    if edges is None:
         return None
-    poly = chain_boundary(np.concatenate([e for e, _ in gathered]),
-                          np.concatenate([t for _, t in gathered]))
+    poly = chain_boundary(edges, tags)
     wanted = {int(t) for t in surface_tags}
     return [poly.points[idx] for tag, idx in poly.segments() if tag in wanted]
 

@@ -272,3 +272,16 @@ def _msh_problem(gmsh, path) -> str | None:
         return (f"geometry.mesh_file = {path}: no physical line group (the boundary tags: "
                 f"BED={BED}, WALL={WALL}, SURFACE={SURFACE}, LEFT={LEFT}, RIGHT={RIGHT})")
     return None
+
+
+def boundary_edges(tagged: TaggedMesh) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The tagged boundary edges (m, 2, 2) and their tags (m,) of every rank, on rank 0
+    (None elsewhere)."""
+    mesh, ft = tagged.mesh, tagged.facet_tags
+    nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
+    edges = mesh.geometry.x[:, :2][nodes] if len(ft.indices) else np.zeros((0, 2, 2))
+    gathered = mesh.comm.gather((edges, np.asarray(ft.values)), root=0)
+    if mesh.comm.rank != 0:
+        return None, None
+    return (np.concatenate([e for e, _ in gathered]),
+            np.concatenate([t for _, t in gathered]))

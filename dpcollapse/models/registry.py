@@ -18,20 +18,30 @@ import dpcollapse.models as _package
 _SKIP = {"base", "registry"}
 
 
+def _package_modules() -> list[str]:
+    """Every module of the package and its packages, but ``base`` and ``registry``."""
+    return [info.name for info in pkgutil.walk_packages(_package.__path__, prefix=f"{_package.__name__}.")
+            if not info.ispkg and info.name.rsplit(".", 1)[-1] not in _SKIP]
+
+
+def _classes_by(attribute: str, modules) -> dict[str, type]:
+    """value of ``attribute`` (a str) -> the class defining it (with ``from_config``) in
+    ``modules``."""
+    found = {}
+    for name in modules:
+        module = importlib.import_module(name)
+        for obj in vars(module).values():
+            key = getattr(obj, attribute, None)
+            if (isinstance(obj, type) and isinstance(key, str) and hasattr(obj, "from_config")
+                    and obj.__module__ == module.__name__):
+                found[key] = obj
+    return found
+
+
 @functools.cache
 def model_classes() -> dict[str, type]:
     """numerics.method -> model class, from every module of the package and its packages."""
-    found = {}
-    for info in pkgutil.walk_packages(_package.__path__, prefix=f"{_package.__name__}."):
-        if info.ispkg or info.name.rsplit(".", 1)[-1] in _SKIP:
-            continue
-        module = importlib.import_module(info.name)
-        for obj in vars(module).values():
-            method = getattr(obj, "method", None)
-            if (isinstance(obj, type) and isinstance(method, str) and hasattr(obj, "from_config")
-                    and obj.__module__ == module.__name__):
-                found[method] = obj
-    return found
+    return _classes_by("method", _package_modules())
 
 
 #: Modules outside the package that hold a model factory (imported when asked for).
@@ -41,17 +51,7 @@ FACTORY_MODULES = ("dpcollapse.discretization",)
 @functools.cache
 def model_factories() -> dict[str, type]:
     """model.name -> factory class (``model_name`` and ``from_config``)."""
-    found = {}
-    names = [info.name for info in pkgutil.walk_packages(_package.__path__, prefix=f"{_package.__name__}.")
-             if not info.ispkg and info.name.rsplit(".", 1)[-1] not in _SKIP]
-    for name in [*names, *FACTORY_MODULES]:
-        module = importlib.import_module(name)
-        for obj in vars(module).values():
-            key = getattr(obj, "model_name", None)
-            if (isinstance(obj, type) and isinstance(key, str) and hasattr(obj, "from_config")
-                    and obj.__module__ == module.__name__):
-                found[key] = obj
-    return found
+    return _classes_by("model_name", [*_package_modules(), *FACTORY_MODULES])
 
 
 def model_factory(cfg):

@@ -27,7 +27,15 @@ from typing import Protocol
 
 import numpy as np
 
-from dpcollapse.geometry.mesher import TaggedMesh, mesh_polygon, read_msh, write_polygon_msh
+from dpcollapse.geometry.mesher import (
+    BED,
+    SURFACE,
+    WALL,
+    TaggedMesh,
+    mesh_polygon,
+    read_msh,
+    write_polygon_msh,
+)
 
 
 class BoundaryKind(str, Enum):
@@ -120,6 +128,15 @@ def bed_boundary(tag: int, condition: str, mu: float) -> Boundary:
         return Boundary(tag, "bed", BoundaryKind.NO_SLIP, (0.0, -1.0))
     kind = BoundaryKind.COULOMB if mu > 0 else BoundaryKind.SLIP
     return Boundary(tag, "bed", kind, (0.0, -1.0), friction=mu)
+
+
+def walled_boundaries(bed_condition: str, mu_bed: float, mu_wall: float) -> tuple[Boundary, ...]:
+    """A mass on the bed against the wall x = 0: the bed (``bed_boundary``), the wall
+    (Coulomb μ_l, frictionless when μ_l = 0) and the free surface."""
+    wall = BoundaryKind.COULOMB if mu_wall > 0 else BoundaryKind.SLIP
+    return (bed_boundary(BED, bed_condition, mu_bed),
+            Boundary(WALL, "wall", wall, (-1.0, 0.0), friction=mu_wall),
+            Boundary(SURFACE, "surface", BoundaryKind.FREE_SURFACE))
 
 
 def top_extent(x: np.ndarray) -> tuple[float, float]:

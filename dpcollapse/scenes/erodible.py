@@ -22,18 +22,14 @@ import numpy as np
 
 from dpcollapse.geometry.erodible import erodible_regions
 from dpcollapse.geometry.mesher import (
-    BED,
-    SURFACE,
-    WALL,
     TaggedMesh,
     mesh_regions,
     read_msh,
     write_regions_msh,
 )
 from dpcollapse.scenes.base import (
+    walled_boundaries,
     Boundary,
-    BoundaryKind,
-    bed_boundary,
     initial_velocity,
 )
 
@@ -81,10 +77,7 @@ class ErodibleScene:
         return path
 
     def boundaries(self) -> tuple[Boundary, ...]:
-        wall = BoundaryKind.COULOMB if self.mu_wall > 0 else BoundaryKind.SLIP
-        return (bed_boundary(BED, self.bed_condition, self.mu_bed),
-                Boundary(WALL, "wall", wall, (-1.0, 0.0), friction=self.mu_wall),
-                Boundary(SURFACE, "surface", BoundaryKind.FREE_SURFACE))
+        return walled_boundaries(self.bed_condition, self.mu_bed, self.mu_wall)
 
     def initial_velocity(self):
         return initial_velocity(self.velocity, self.height + self.layer_thickness,

@@ -11,17 +11,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from dpcollapse.geometry.mesher import (
-    BED,
-    SURFACE,
-    WALL,
-)
 from dpcollapse.geometry.trapezoid import trapezoid_polygon
 from dpcollapse.scenes.base import (
+    walled_boundaries,
     Boundary,
-    BoundaryKind,
     PolygonScene,
-    bed_boundary,
     initial_velocity,
     top_extent,
 )
@@ -54,10 +48,7 @@ class TrapezoidScene(PolygonScene):
         return trapezoid_polygon(self.height, self.base_length, self.flank_angle)
 
     def boundaries(self) -> tuple[Boundary, ...]:
-        wall = BoundaryKind.COULOMB if self.mu_wall > 0 else BoundaryKind.SLIP
-        return (bed_boundary(BED, self.bed_condition, self.mu_bed),
-                Boundary(WALL, "wall", wall, (-1.0, 0.0), friction=self.mu_wall),
-                Boundary(SURFACE, "surface", BoundaryKind.FREE_SURFACE))
+        return walled_boundaries(self.bed_condition, self.mu_bed, self.mu_wall)
 
     def initial_velocity(self):
         return initial_velocity(self.velocity, self.height, self.surface_speed)
