@@ -442,6 +442,27 @@ def stability(scene: str, quick: bool, config: Path | None, out: Path | None, me
     return 0
 
 
+@cli.command()
+@click.option("--quick", is_flag=True, help="Two tiny cases (3 cm 2D cells; SH dx 4 mm): the test.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("docs"),
+              show_default=True, help="Folder of ladder.csv, ladder_series.csv, ladder.png.")
+@click.option("--work", type=click.Path(file_okay=False, path_type=Path), default=Path("runs/ladder"),
+              show_default=True, help="Folder of the 2D run directories.")
+@click.option("--only", multiple=True, metavar="CASE", help="Run only this case (repeatable).")
+@click.option("--redo", is_flag=True, help="Run cases already in the CSV again.")
+@click.option("--plot-only", is_flag=True, help="Only redraw the chart and table from the CSVs.")
+@click.option("--sh-resolution", "sh_case", default=None, metavar="CASE",
+              help="Only the Savage-Hutter side of CASE at dx = 4, 2, 1, 0.5 mm.")
+def ladder(quick: bool, out: Path, work: Path, only: tuple[str, ...], redo: bool, plot_only: bool,
+           sh_case: str | None) -> int:
+    """The model ladder: each scene with the 2D model and with Savage-Hutter, runout,
+    deposit height and cost side by side (docs/ladder.md)."""
+    _setup_logging(quiet=True)
+    echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
+    return _lazy("dpcollapse.validation.ladder", "run")(
+        quick, out, work, list(only) or None, redo, plot_only, sh_case, echo=echo)
+
+
 from dpcollapse.sweep.commands import plot_sweep, sweep  # no DOLFINx imported
 
 cli.add_command(sweep)

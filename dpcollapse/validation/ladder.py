@@ -1,7 +1,7 @@
 """The model ladder, measured (issue 15): the 2D solver and the depth-averaged model on one scene.
 
-    python -m dpcollapse.validation.ladder [--quick] [--out docs] [--work runs/ladder]
-                                           [--only CASE ...] [--redo] [--plot-only]
+    dpcollapse ladder [--quick] [--out docs] [--work runs/ladder]
+                                           [--only CASE]... [--redo] [--plot-only]
 
 For each case (a config of ``configs/`` plus ``--set`` overrides) both rungs run on the same
 problem, one after the other in this process:
@@ -48,6 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from dpcollapse.config import Config, load_config, with_overrides
+from dpcollapse.errors import ConfigError
 from dpcollapse.models.savage_hutter import Grid, SavageHutter, simulate
 from dpcollapse.models.savage_hutter.exact import mangeney_dam_break
 from dpcollapse.models.savage_hutter.initial import polygon_area, polygon_cell_averages
@@ -535,30 +536,27 @@ def sh_resolution(case: Case, end_time: float | None = None) -> list[dict]:
 
 
 # ----------------------------------------------------------------------------- main
-def main(argv=None) -> int:
-    """Run the plan (skipping cases already in the CSV), write the CSVs, the chart, the table."""
-    parser = argparse.ArgumentParser(prog="python -m dpcollapse.validation.ladder")
-    parser.add_argument("--quick", action="store_true",
-                        help="two tiny cases (3 cm 2D cells; SH Δx 4 mm): the test")
-    parser.add_argument("--out", default="docs", help="folder of ladder.csv, ladder_series.csv, ladder.png")
-    parser.add_argument("--work", default="runs/ladder", help="folder of the 2D run directories")
-    parser.add_argument("--only", nargs="*", default=None, help="run only these cases")
-    parser.add_argument("--redo", action="store_true", help="run cases already in the CSV again")
-    parser.add_argument("--plot-only", action="store_true", help="only redraw from the CSVs")
-    parser.add_argument("--sh-resolution", metavar="CASE",
-                        help="only the Savage–Hutter side of CASE at Δx = 4, 2, 1, 0.5 mm")
-    args = parser.parse_args(argv)
-    if args.sh_resolution:
-        case = next(c for c in full_plan() + quick_plan() if c.name == args.sh_resolution)
+def run(quick=False, out="docs", work="runs/ladder", only=None, redo=False, plot_only=False,
+        sh_case=None, echo=print) -> int:
+    """Run the plan (skipping cases already in the CSV), write the CSVs, the chart, the table.
+
+    ``sh_case``: only the Savage–Hutter side of that case at Δx = 4, 2, 1, 0.5 mm.
+    An unknown case name is a :class:`~dpcollapse.errors.ConfigError` (one line, exit 2)."""
+    known = [c.name for c in full_plan() + quick_plan()]
+    for name in ([sh_case] if sh_case else []) + list(only or []):
+        if name not in known:
+            raise ConfigError(f"case {name!r}: must be one of {', '.join(dict.fromkeys(known))}")
+    if sh_case:
+        case = next(c for c in full_plan() + quick_plan() if c.name == sh_case)
         end = 0.5 if case.group == "dam_break" else None
-        print("dx [m]   status   t_end [s]  steps  wall [s]  runout [m]  H_f [m]")
+        echo("dx [m]   status   t_end [s]  steps  wall [s]  runout [m]  H_f [m]")
         for r in sh_resolution(case, end):
-            print(f"{r['dx']:.4f}  {r['status']:8s} {r['t_end']:8.3f} {r['steps']:6d} {r['wall']:8.2f} "
-                  f"{r['runout']:10.4f} {r['height']:8.4f}")
+            echo(f"{r['dx']:.4f}  {r['status']:8s} {r['t_end']:8.3f} {r['steps']:6d} {r['wall']:8.2f} "
+                 f"{r['runout']:10.4f} {r['height']:8.4f}")
         return 0
-    out, work = Path(args.out), Path(args.work)
-    plan = quick_plan() if args.quick else full_plan()
-    dx = SH_DX_QUICK if args.quick else SH_DX
+    out, work = Path(out), Path(work)
+    plan = quick_plan() if quick else full_plan()
+    dx = SH_DX_QUICK if quick else SH_DX
     done = {r["case"]: r for r in read_rows(out / "ladder.csv")}
     curves: dict = {}
     for (c, rung, kind), arr in read_series(out / "ladder_series.csv").items():
@@ -572,21 +570,42 @@ def main(argv=None) -> int:
     for case in plan:
         old = done.get(case.name)
         fresh = old is not None and _same_case(old, case, dx)
-        wanted = args.only is None or case.name in args.only
-        if args.plot_only or not wanted or (fresh and not args.redo):
+        wanted = not only or case.name in only
+        if plot_only or not wanted or (fresh and not redo):
             continue
-        print(f"{case.name}: running ({case.config} {' '.join(case.overrides)})", flush=True)
+        echo(f"{case.name}: running ({case.config} {' '.join(case.overrides)})")
         row, series = compare(case, work, dx)
         done[case.name], curves[case.name] = row, series
         save()
-        print(f"  2D {row['status_2d']} {row['wall_2d_s']:.1f} s, SH {row['status_sh']} "
-              f"{row['wall_sh_s']:.2f} s: runout {row['runout_2d']:.4f} / {row['runout_sh']:.4f} m, "
-              f"H_f {row['height_2d']:.4f} / {row['height_sh']:.4f} m", flush=True)
+        echo(f"  2D {row['status_2d']} {row['wall_2d_s']:.1f} s, SH {row['status_sh']} "
+             f"{row['wall_sh_s']:.2f} s: runout {row['runout_2d']:.4f} / {row['runout_sh']:.4f} m, "
+             f"H_f {row['height_2d']:.4f} / {row['height_sh']:.4f} m")
     save()
     rows = read_rows(out / "ladder.csv")
     plot(rows, read_series(out / "ladder_series.csv"), out / "ladder.png")
-    print(table(rows))
+    echo(table(rows))
     return 0
+
+
+def main(argv=None) -> int:
+    """``python -m dpcollapse.validation.ladder``: the same as ``dpcollapse ladder``."""
+    parser = argparse.ArgumentParser(prog="python -m dpcollapse.validation.ladder")
+    parser.add_argument("--quick", action="store_true",
+                        help="two tiny cases (3 cm 2D cells; SH Δx 4 mm): the test")
+    parser.add_argument("--out", default="docs", help="folder of ladder.csv, ladder_series.csv, ladder.png")
+    parser.add_argument("--work", default="runs/ladder", help="folder of the 2D run directories")
+    parser.add_argument("--only", nargs="*", default=None, help="run only these cases")
+    parser.add_argument("--redo", action="store_true", help="run cases already in the CSV again")
+    parser.add_argument("--plot-only", action="store_true", help="only redraw from the CSVs")
+    parser.add_argument("--sh-resolution", metavar="CASE",
+                        help="only the Savage–Hutter side of CASE at Δx = 4, 2, 1, 0.5 mm")
+    args = parser.parse_args(argv)
+    try:
+        return run(args.quick, args.out, args.work, args.only, args.redo, args.plot_only,
+                   args.sh_resolution, echo=lambda m: print(m, flush=True))
+    except ConfigError as exc:
+        print(f"ladder: error: {exc}", file=sys.stderr)
+        return exc.exit_code
 
 
 if __name__ == "__main__":

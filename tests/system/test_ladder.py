@@ -6,6 +6,7 @@ ordering, and that a second call reuses the CSV."""
 import csv
 import math
 
+from dpcollapse.cli import main as cli_main
 from dpcollapse.validation import ladder
 
 
@@ -46,10 +47,20 @@ def test_ladder_quick(tmp_path):
     assert -0.2 < mui["runout_diff"] < 0 and mui["runout_sh"] < mui["runout_2d"]
     assert mui["cost_ratio_cpu"] > 1
 
-    # a second call finds the case in the CSV and does not run it again
+    # a second call (the `dpcollapse ladder` subcommand) finds the case in the CSV and does
+    # not run it again
     (work / "column_a2_quick" / "run.json").unlink()
-    assert ladder.main(["--quick", "--out", str(out), "--work", str(work)]) == 0
+    assert cli_main(["ladder", "--quick", "--out", str(out), "--work", str(work)]) == 0
     assert not (work / "column_a2_quick" / "run.json").exists()
     series = ladder.read_series(out / "ladder_series.csv")
     assert {("column_a2_quick", rung, kind) for rung in ("2d", "sh")
             for kind in ("front", "profile")} <= set(series)
+
+
+def test_ladder_unknown_case_is_one_line(tmp_path, capsys):
+    """An unknown case name: exit 2, one line naming the case, nothing run or written."""
+    assert cli_main(["ladder", "--only", "no_such_case", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "no_such_case" in err and "column_a2" in err
+    assert ladder.main(["--sh-resolution", "nope", "--out", str(tmp_path)]) == 2
+    assert not any(tmp_path.iterdir())
