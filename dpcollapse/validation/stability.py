@@ -246,9 +246,15 @@ def rigid_reference(base, config: Path, plan: Plan, out: Path, log=print) -> dic
     return dict(values)
 
 
+def _key(c: Cell) -> tuple:
+    return (c.method, "nan" if math.isnan(c.epsilon) else c.epsilon, c.dt, c.mesh_size)
+
+
 def stability_map(scene: str, config: Path, out: Path, quick: bool = False, plan: Plan | None = None,
-                  log=print) -> list[Cell]:
-    """Run the map of ``scene``; write stability_SCENE.csv and .png into ``out``."""
+                  log=print, append: bool = False) -> list[Cell]:
+    """Run the map of ``scene``; write stability_SCENE.csv and .png into ``out``. With
+    ``append``, the rows of an existing stability_SCENE.csv there are kept (a cell run again
+    replaces its row) and the picture shows them all: a map extended run by run."""
     plan = plan or PLANS[(scene, quick)]
     plan = replace(plan, times=list(plan.times) or [plan.end_time])
     base = load_config(config)
@@ -261,7 +267,8 @@ def stability_map(scene: str, config: Path, out: Path, quick: bool = False, plan
         reference = reference_solution(base, max(plan.end_time, max(plan.times)), plan.times)
     else:
         reference = rigid_reference(base, config, plan, out, log)
-    cells = []
+    csv_path = out / f"stability_{scene}.csv"
+    cells = read_csv(csv_path) if append and csv_path.is_file() else []
     for method in plan.methods:
         epsilons = [math.nan] if method == "augmented_lagrangian" else plan.epsilons
         for eps in epsilons:
@@ -274,9 +281,9 @@ def stability_map(scene: str, config: Path, out: Path, quick: bool = False, plan
                     error = (_plug_error(values, plan.times) if scene == "plug"
                              else _rigid_error(values, reference, plan.times))
                     classify(cell, error, plan.tolerance)
-                    cells.append(cell)
+                    cells = [c for c in cells if _key(c) != _key(cell)] + [cell]
                     log(_row(cell))
-                    write_csv(out / f"stability_{scene}.csv", cells)
+                    write_csv(csv_path, cells)
     plot(out / f"stability_{scene}.png", cells, plan, scene)
     return cells
 
@@ -332,10 +339,12 @@ def plot(path: Path, cells: list[Cell], plan: Plan, scene: str) -> None:
     import matplotlib.ticker
     from matplotlib.lines import Line2D
 
-    methods = [m for m in plan.methods if any(c.method == m for c in cells)]
+    methods = [m for m in dict.fromkeys(list(plan.methods) + [c.method for c in cells])
+               if any(c.method == m for c in cells)]
     fig, axes = plt.subplots(1, len(methods), figsize=(3.6 * len(methods) + 1, 3.9), sharey=True, squeeze=False)
-    sizes = sorted(plan.mesh_sizes)
-    eps_all = sorted(plan.epsilons)
+    sizes = sorted(set(plan.mesh_sizes) | {c.mesh_size for c in cells})
+    eps_all = sorted(set(plan.epsilons) | {c.epsilon for c in cells if not math.isnan(c.epsilon)})
+    dts = sorted(set(plan.dts) | {c.dt for c in cells})
     for ax, method in zip(axes[0], methods):
         for c in (c for c in cells if c.method == method):
             marker, color = MARKS[c.cls]
@@ -354,13 +363,13 @@ def plot(path: Path, cells: list[Cell], plan: Plan, scene: str) -> None:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlim(min(eps_all) / 3, max(eps_all) * 3)
-        ax.set_ylim(min(plan.dts) * 1e3 / 1.6, max(plan.dts) * 1e3 * 1.6)
+        ax.set_ylim(min(dts) * 1e3 / 1.6, max(dts) * 1e3 * 1.6)
         ax.set_title(method + (" (no ε: same in every column)" if method == "augmented_lagrangian" else ""),
                      fontsize=9)
-        ax.set_yticks([d * 1e3 for d in plan.dts])
-        ax.set_yticklabels([f"{d * 1e3:g}" for d in plan.dts])
+        ax.set_yticks([d * 1e3 for d in dts])
+        ax.set_yticklabels([f"{d * 1e3:g}" for d in dts])
         ax.yaxis.set_minor_locator(matplotlib.ticker.NullLocator())
-        ax.set_xlabel("ε [1/s]")
+        ax.set_xlabel("ε [1/s]" if scene == "plug" else "ε [1/s] = ε_f [m/s]")
         ax.grid(alpha=0.3, which="major")
     axes[0, 0].set_ylabel("Δt [ms]")
     handles = [Line2D([], [], marker=m, color=col, linestyle="", markeredgecolor="k", label=name)
