@@ -63,6 +63,22 @@ def test_rigid_quick_newton_falls_back(tmp_path):
     assert (tmp_path / "stability_rigid.png").stat().st_size > 10_000
 
 
+def test_front_at_compare_time_is_interpolated(tmp_path):
+    """The rigid compare value is the front at the compare time, linear between the steps
+    that bracket it (not the front of the first step past it), from the running map and from
+    a run's diagnostics.csv alike."""
+    from dpcollapse.validation.stability import fronts_from_diagnostics, interpolate
+
+    assert interpolate((0.096, 0.30), (0.104, 0.31), 0.1) == pytest.approx(0.305)
+    assert interpolate((0.1, 0.30), (0.1, 0.31), 0.1) == 0.31
+    path = tmp_path / "diagnostics.csv"
+    path.write_text("t,front\n0.004,0.3\n0.104,0.4\n0.2,0.5\n")
+    values = fronts_from_diagnostics(path, [0.1, 0.2], front0=0.297)
+    assert values[0.1] == pytest.approx(0.3 + 0.1 * 0.096 / 0.1)
+    assert values[0.2] == pytest.approx(0.5)
+    assert values["front0"] == 0.297
+
+
 @pytest.mark.parametrize("args, key", [(["--methods", "bisection"], "--methods"),
                                        (["--epsilons", "1e-2,abc"], "--epsilons"),
                                        (["--cap", "-1"], "--cap")])
