@@ -117,6 +117,7 @@ class Cell:
     factorizations: int = 0
     wall_time: float = math.nan
     error: float = math.nan
+    # the three counts: -1 in a row read from a CSV written before they were recorded
     fallbacks: int = 0          # step attempts Newton failed and Picard redid (newton only)
     halvings: int = 0           # step attempts that failed and were retried with Δt/2
     short_steps: int = 0        # accepted steps shorter than Δt (halving, mesh-motion limit)
@@ -392,9 +393,10 @@ def read_csv(path: Path) -> list[Cell]:
                               float(row["mesh_size"]), row["class"], int(row["exit_code"]), row["reason"],
                               int(row["steps"]), int(row["iterations"]), int(row["factorizations"]),
                               float(row["wall_time"]), float(row["error"]),
-                              # columns added later: a CSV written before them reads as 0 / NaN
-                              int(row.get("fallbacks") or 0), int(row.get("halvings") or 0),
-                              int(row.get("short_steps") or 0), float(row.get("max_courant") or math.nan),
+                              # columns added later: a CSV written before them reads as -1
+                              # (not recorded) / NaN
+                              int(row.get("fallbacks") or -1), int(row.get("halvings") or -1),
+                              int(row.get("short_steps") or -1), float(row.get("max_courant") or math.nan),
                               float(row.get("courant_dx") or math.nan)))
     return cells
 
@@ -422,7 +424,7 @@ def plot(path: Path, cells: list[Cell], plan: Plan, scene: str) -> None:
             offset = 1.8 ** (k - (len(sizes) - 1) / 2)
             xs = eps_all if math.isnan(c.epsilon) else [c.epsilon]
             for x in xs:
-                if c.fallbacks:    # Newton alone did not carry the run: open mark + count
+                if c.fallbacks > 0:    # Newton alone did not carry the run: open mark + count
                     ax.scatter([x * offset], [c.dt * 1e3], marker=marker, facecolor="none",
                                edgecolor=color, s=25 + 45 * k, linewidth=1.6, zorder=3)
                     ax.annotate(str(c.fallbacks), (x * offset, c.dt * 1e3), xytext=(3, 3),
@@ -444,7 +446,7 @@ def plot(path: Path, cells: list[Cell], plan: Plan, scene: str) -> None:
     axes[0, 0].set_ylabel("Δt [ms]")
     handles = [Line2D([], [], marker=m, color=col, linestyle="", markeredgecolor="k", label=name)
                for name, (m, col) in MARKS.items()]
-    if any(c.fallbacks for c in cells):
+    if any(c.fallbacks > 0 for c in cells):
         handles.append(Line2D([], [], marker="o", color="w", markerfacecolor="none", markeredgecolor="k",
                               markeredgewidth=1.6, label="open: Newton fell back\nto Picard (number)"))
     handles += [Line2D([], [], marker="o", color="w", markeredgecolor="k", markersize=(25 + 45 * k) ** 0.5,
