@@ -435,6 +435,9 @@ def plot(path: Path, cells: list[Cell], plan: Plan, scene: str) -> None:
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlim(min(eps_all) / 3, max(eps_all) * 3)
+        ax.set_xticks(eps_all)
+        ax.set_xticklabels([f"{e:.0e}" for e in eps_all], fontsize=7)
+        ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
         ax.set_ylim(min(dts) * 1e3 / 1.6, max(dts) * 1e3 * 1.6)
         ax.set_title(method + (" (no ε: same in every column)" if method == "augmented_lagrangian" else ""),
                      fontsize=9)
@@ -456,6 +459,6 @@ def plot(path: Path, cells: list[Cell], plan: Plan, scene: str) -> None:
     fig.suptitle(f"{scene}: t ≤ {plan.end_time:g} s; accurate = {what} ≤ {plan.tolerance:g}; "
                  f"too slow > {plan.cap:g} CPU s", fontsize=9)
     fig.legend(handles=handles, loc="center right", fontsize=8, frameon=False)
-    fig.tight_layout(rect=(0, 0, 1 - 1.3 / (3.6 * len(methods) + 1), 0.95))
+    fig.tight_layout(rect=(0, 0, 1 - 1.8 / (3.6 * len(methods) + 1), 0.95))
     fig.savefig(path, dpi=110)
     plt.close(fig)
