@@ -13,14 +13,18 @@ a scene with a reference and classifies every run:
 
 Scenes: ``plug`` (``configs/plug.yaml``; error = RMS over the compare times ≤ end time of
 the relative L² error of u_x against the 1D non-smooth reference ``reference.plug1d``) and
-``rigid`` (``configs/rigid.yaml``; error = the largest difference of the front position at
-the compare times, divided by the front's travel, against a reference run: the finest ΔX
-and Δt of the plan, augmented Lagrangian at the config's tolerance, run first). The augmented Lagrangian has no ε: it is run once
-per (Δt, ΔX) and its class is drawn in every ε column.
+``rigid`` (``configs/rigid.yaml``; error = max over the compare times of |x_f − x_f,ref| [m],
+the front interpolated between the steps that bracket each compare time, against a
+reference run — ``Plan.reference_*``, the finest of the plan — run first and kept in
+``reference_rigid.json``). The augmented Lagrangian has no ε: it is run once per (Δt, ΔX)
+and its class is drawn in every ε column.
 
-Writes ``stability_SCENE.csv`` and ``stability_SCENE.png`` (one panel per method, Δt
-against ε, a mark per class, ΔX as marker size). The runs are in-process (the error needs
-an observer of the running simulation), one after another.
+Per run besides the class: iterations, factorizations, Newton's Picard fallbacks, halved
+steps, steps shorter than Δt (halving or the mesh-motion limit) and the largest cell and
+bulk Courant numbers. Writes ``stability_SCENE.csv`` and ``stability_SCENE.png`` (one panel
+per method, Δt against ε, a mark per class, ΔX as marker size, a run that needed Newton
+fallbacks drawn open with their number). The runs are in-process (the error needs an
+observer of the running simulation), one after another.
 """
 
 from __future__ import annotations
