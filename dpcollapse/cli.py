@@ -407,9 +407,11 @@ def _number_list(option: str, text: str | None) -> list[float] | None:
 @click.option("--mesh-sizes", default=None, metavar="DX,...", help="mesh sizes [m] (replace the plan's).")
 @click.option("--end-time", type=float, default=None, help="End time of every run [s].")
 @click.option("--cap", type=float, default=None, help="CPU seconds per run before it counts as too slow.")
+@click.option("--append", is_flag=True,
+              help="Keep the rows of the stability_SCENE.csv already in --out (extend a map run by run).")
 def stability(scene: str, quick: bool, config: Path | None, out: Path | None, methods: str | None,
               epsilons: str | None, dts: str | None, mesh_sizes: str | None, end_time: float | None,
-              cap: float | None) -> int:
+              cap: float | None, append: bool) -> int:
     """Map where each method works: method x epsilon x dt x dx, every run classified
     (accurate / wrong / failed with exit code / too slow); CSV + PNG."""
     config = config or Path("configs/plug.yaml" if scene == "plug" else "configs/rigid.yaml")
@@ -437,7 +439,7 @@ def stability(scene: str, quick: bool, config: Path | None, out: Path | None, me
     plan.times = [t for t in plan.times if t <= plan.end_time + 1e-9]   # empty: the end time
     _setup_logging(quiet=True)
     echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
-    _lazy(module, "stability_map")(scene, config, out, quick=quick, plan=plan, log=echo)
+    _lazy(module, "stability_map")(scene, config, out, quick=quick, plan=plan, log=echo, append=append)
     echo(f"wrote {out / f'stability_{scene}.csv'} and {out / f'stability_{scene}.png'}")
     return 0
 

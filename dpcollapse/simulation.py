@@ -174,6 +174,8 @@ class Simulation:
         self.step_sizes: list[float] = []
         self.factorizations = 0  # LU factorizations of the flow system (retired meshes)
         self.krylov_iterations = 0  # Krylov iterations of the flow solves (retired meshes)
+        self.fallbacks = 0  # step attempts Newton failed and Picard redid (retired meshes)
+        self.halvings = 0   # step attempts that failed and were retried with dt/2
         self.dt_limit = math.inf
         self.courant = 0.0  # Courant number Δt·max_K |uⁿ|/h_K of the last step
         self.wall0 = time.perf_counter()
@@ -263,6 +265,7 @@ class Simulation:
         iterations it did."""
         self.factorizations += disc.flow.solver.factorizations
         self.krylov_iterations += disc.flow.solver.krylov_iterations
+        self.fallbacks += disc.flow.solver.fallbacks
         disc.destroy()
 
     def _rebuild(self, tagged: TaggedMesh) -> None:
@@ -340,6 +343,7 @@ class Simulation:
                     f"{report.residual:.2e}; try a larger numerics.max_iterations or numerics.epsilon")
             log.warning("t = %.4f s: no convergence with dt = %.2e s (%s, residual %.2e); halving dt",
                         st.t, dt, report.message, report.residual)
+            self.halvings += 1
             dt /= 2
             domain.recompute(self.disc)
         self.disc.flow.accept_step()
@@ -444,6 +448,8 @@ class Simulation:
             "flow_factorizations": self.factorizations + self.disc.flow.solver.factorizations,
             "mesh_velocity_factorizations": self.ale_solves,
             "krylov_iterations": self.krylov_iterations + self.disc.flow.solver.krylov_iterations,
+            "newton_fallbacks": self.fallbacks + self.disc.flow.solver.fallbacks,
+            "halved_steps": self.halvings,
         }
         summary.update({k: m[k] for k in self.disc.extra_measures})
         summary["model"] = self.cfg.model.name

@@ -102,6 +102,7 @@ class BlockSolver:
         self.factorizations = 0
         self.solves = 0
         self.krylov_iterations = 0
+        self.fallbacks = 0   # step attempts Newton failed and Picard redid (models.stokes.newton)
         self.last_iterations = 0
         self.solve_iterations: list[int] = []
         #: set-up (operators, then the AMG hierarchies at the first solve) and solve time

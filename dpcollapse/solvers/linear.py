@@ -44,6 +44,7 @@ class DirectSolver:
         self.ksp.setFromOptions()
         self.factorizations = 0
         self.krylov_iterations = 0   # GMRES iterations in Krylov mode (0 with preonly)
+        self.fallbacks = 0           # step attempts Newton failed and Picard redid (models.stokes.newton)
         self.solves = 0
         self.solve_iterations: list[int] = []
         self.seconds = {"factorization": 0.0, "solve": 0.0}

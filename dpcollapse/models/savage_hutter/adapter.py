@@ -54,6 +54,7 @@ class NoLinearSolver:
 
     factorizations = 0
     krylov_iterations = 0
+    fallbacks = 0
 
 
 class SavageHutterFlow:

@@ -67,7 +67,6 @@ class NewtonFlow(RegularizedFlow):
         super().__init__(tagged, params, settings.picard)
         self._build_newton()
         self.residual_history: list[tuple[float, int, float]] = []  # (ε, iteration, ‖F‖)
-        self.fallbacks = 0   # steps redone by Picard
 
     def _build_newton(self) -> None:
         mesh, p = self.mesh, self.params
@@ -128,7 +127,8 @@ class NewtonFlow(RegularizedFlow):
         report = self._newton_step(dt)
         if report.converged or not self.newton.fallback:
             return report
-        self.fallbacks += 1
+        # counted where the loop reads the flow's counters (kept across remeshes)
+        self.solver.fallbacks += 1
         picard = super().solve_step(dt)
         picard.iterations += report.iterations
         if not picard.converged:
