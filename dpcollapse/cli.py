@@ -443,13 +443,15 @@ def stability(scene: str, quick: bool, config: Path | None, out: Path | None, me
 
 
 @cli.command()
-@click.option("--quick", is_flag=True, help="Two cases on two coarse meshes (checks the harness, < 1 min).")
+@click.option("--quick", is_flag=True,
+              help="Two cases on two coarse meshes (checks the harness, < 1 min).")
 @click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path),
               default=Path("configs/bagnold.yaml"), show_default=True,
               help="A mu_i layer config (its law, depth, density; slope and mesh are the plan's).")
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path),
               default=Path("runs/wellposed"), show_default=True, help="Output directory.")
-@click.option("--cells", default=None, metavar="N,...", help="Cells across the layer, coarse to fine.")
+@click.option("--cells", default=None, metavar="N,...",
+              help="Cells across the layer, coarse to fine.")
 @click.option("--steps", type=int, default=None, help="Time steps per run (> the fit window).")
 @click.option("--diffusion-number", type=float, default=None,
               help="beta in dt = beta dx^2/nu_mid (the time step of each mesh).")

@@ -96,8 +96,8 @@ class WellposedPlan:
 
 
 # Law of configs/bagnold.yaml: μ_s = 0.32, μ_2 = 0.60, I0 = 0.4; window 0.01363 < I < 1.810.
-# θ = 17.9° ⇒ I_θ = 0.0045 (below), 22° ⇒ 0.1715 (inside), 30° ⇒ 4.49 (above; μ_2 > tan 30°,
-# so the steady state exists).
+# θ = 17.9° ⇒ I_θ = 0.00432 (below), 22° ⇒ 0.1715 (inside), 30° ⇒ 4.545 (above; μ_2 >
+# tan 30°, so the steady state exists).
 # ε = 1 1/s exceeds the bulk shear rate of the slow flow (γ̇ ≈ 0.66 1/s at mid-depth).
 CASES = [WellposedCase("below", 17.9), WellposedCase("inside", 22.0),
          WellposedCase("above", 30.0), WellposedCase("below", 17.9, 1.0)]
@@ -180,8 +180,8 @@ def _base(config: Path) -> Config:
 
 
 def kinematic_viscosity(law, theta: float, h: float, density: float, gravity: float) -> float:
-    """ν_mid = μ(I_θ) p/(ρ γ̇) [m²/s] of the Bagnold flow at mid-depth y = h/2 (p = ρ g cosθ h/2,
-    γ̇ = ``bagnold_shear_rate``): the effective viscosity σ'_xy/γ̇ over ρ."""
+    """ν_mid = μ(I_θ) p/(ρ γ̇) [m²/s] of the Bagnold flow at mid-depth y = h/2
+    (p = ρ g cosθ h/2, γ̇ = ``bagnold_shear_rate``): the effective viscosity σ'_xy/γ̇ over ρ."""
     p = density * gravity * math.cos(theta) * h / 2
     rate = bagnold_shear_rate(law, theta, h, h / 2, density, gravity)
     return math.tan(theta) * p / (density * rate)
@@ -207,7 +207,8 @@ def _cfg(base: Config, case: WellposedCase, cells: int, eps: float, plan: Wellpo
     period = [f"geometry.base_length={plan.period!r}"] if plan.period is not None else []
     return with_overrides(base, period + [
         f"geometry.bed_angle={case.bed_angle!r}", f"geometry.mesh_size={h / cells!r}",
-        f"numerics.epsilon={eps!r}", f"numerics.nonlinear_rtol={plan.rtol!r}", "numerics.nonlinear_atol=1e-13",
+        f"numerics.epsilon={eps!r}", f"numerics.nonlinear_rtol={plan.rtol!r}",
+        "numerics.nonlinear_atol=1e-13",
         f"time.dt={dt!r}", f"time.dt_min={dt / 4!r}", f"time.end_time={dt * plan.n_steps!r}",
         "time.adaptive=false", "time.output_every=100000", "time.checkpoint_every=100000",
         "time.rest_speed=1e-12", "time.rest_duration=1e9"])
@@ -227,7 +228,7 @@ class _Recorder:
 
 
 def _start(sim: Simulation, cfg: Config, law, plan: WellposedPlan, perturbed: bool) -> float:
-    """Set uⁿ = U (+ noise) and the first pressure iterate to ρ g cosθ (h − y); returns u_s."""
+    """uⁿ = U (+ noise), first pressure iterate ρ g cosθ (h − y); returns u_s."""
     flow, g, m = sim.disc.flow, cfg.geometry, cfg.material
     theta, h = math.radians(g.bed_angle), g.height
     us = bagnold_surface_velocity(law, theta, h, m.density, m.gravity)
@@ -337,7 +338,8 @@ def wellposedness_map(config: Path, out_dir: Path, plan: WellposedPlan, log=prin
 def _row(r: GrowthRun) -> str:
     return (f"{r.case:>7} θ={r.bed_angle:5.2f}° I={r.I_bulk:.4g} C={r.C:+.3f} ε={r.epsilon:g} "
             f"n={r.cells:3d} ΔX={r.mesh_size:.3g} m  {r.status}  σ={r.growth_rate:+.4g} 1/s "
-            f"Δt={r.dt:.3g} s σΔt={r.growth_rate * r.dt:+.3g} a(T)/a(T−fit)={r.amplification:.3g}  iterations {r.iterations}  "
+            f"Δt={r.dt:.3g} s σΔt={r.growth_rate * r.dt:+.3g} a(T)/a(T−fit)={r.amplification:.3g}  "
+            f"iterations {r.iterations}  "
             f"wall {r.wall_time:.1f} s" + (f"  [{r.message}]" if r.message else ""))
 
 
@@ -387,7 +389,8 @@ def read_runs(csv_path: Path, history_path: Path) -> list:
     return runs
 
 
-def plot(path: Path, runs, window, plan: WellposedPlan, law=None, base: Config | None = None) -> None:
+def plot(path: Path, runs, window, plan: WellposedPlan, law=None,
+         base: Config | None = None) -> None:
     """Left: σ against 1/ΔX per (θ, ε), the class in the legend, and (dotted, where C > 0) the
     frozen-coefficient rate G ν_mid (π/ΔX)². Right: a(t)/a(0) of each run against the step."""
     import matplotlib
@@ -410,12 +413,14 @@ def plot(path: Path, runs, window, plan: WellposedPlan, law=None, base: Config |
         y = [r.growth_rate for r in rs]
         ax[0].plot(x, y, "-", color=color, marker=markers.get(r0.klass, "o"), ms=9, lw=1.5,
                    label=label)
-        if law is not None and base is not None and r0.C > 0 and eps == min(e for c, e in groups if c == case):
+        first_eps = min(e for c, e in groups if c == case)
+        if law is not None and base is not None and r0.C > 0 and eps == first_eps:
             theta, m = math.radians(r0.bed_angle), base.material
             G = high_wavenumber_growth(law, r0.I_bulk)
             nu = kinematic_viscosity(law, theta, base.geometry.height, m.density, m.gravity)
             ax[0].plot(x, G * nu * (math.pi * x) ** 2, ":", color=color, lw=1.2,
-                       label=f"θ={r0.bed_angle:g}°: frozen-coefficient G ν_mid (π/ΔX)², G = {G:.3f}")
+                       label=f"θ={r0.bed_angle:g}°: frozen-coefficient G ν_mid (π/ΔX)², "
+                             f"G = {G:.3f}")
         for r in rs:
             if r.history:
                 t, a = np.array(r.history).T

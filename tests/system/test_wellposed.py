@@ -47,7 +47,8 @@ def test_quick_classes(quick_map):
                                        (["--diffusion-number", "-1"], "--diffusion-number"),
                                        (["--config", "configs/rigid.yaml"], "material.rheology")])
 def test_bad_input_exit_2(args, key, tmp_path):
-    proc = subprocess.run(dpcollapse_cmd() + ["wellposed", "--quick", "--out", str(tmp_path), *args],
+    proc = subprocess.run(dpcollapse_cmd() + ["wellposed", "--quick", "--out", str(tmp_path),
+                                              *args],
                           capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert proc.returncode == 2, proc.stderr
     assert key in proc.stderr and "Traceback" not in proc.stderr
