@@ -120,7 +120,7 @@ class GrowthRun:
     dt: float
     status: str
     growth_rate: float        # σ [1/s]
-    amplification: float      # a(T)/a(t_skip)
+    amplification: float      # a(T)/a(T − fit_steps Δt)
     wall_time: float
     iterations: int
     message: str = ""
