@@ -465,6 +465,43 @@ def ladder(quick: bool, out: Path, work: Path, only: tuple[str, ...], redo: bool
         quick, out, work, list(only) or None, redo, plot_only, sh_case, echo=echo)
 
 
+@cli.command()
+@click.option("--quick", is_flag=True,
+              help="Two cases on two coarse meshes (checks the harness, < 1 min).")
+@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path),
+              default=Path("configs/bagnold.yaml"), show_default=True,
+              help="A mu_i layer config (its law, depth, density; slope and mesh are the plan's).")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path),
+              default=Path("runs/wellposed"), show_default=True, help="Output directory.")
+@click.option("--cells", default=None, metavar="N,...",
+              help="Cells across the layer, coarse to fine.")
+@click.option("--steps", type=int, default=None, help="Time steps per run (> the fit window).")
+@click.option("--diffusion-number", type=float, default=None,
+              help="beta in dt = beta dx^2/nu_mid (the time step of each mesh).")
+def wellposed(quick: bool, config: Path, out: Path, cells: str | None, steps: int | None,
+              diffusion_number: float | None) -> int:
+    """Ill-posedness of mu(I) measured: growth of grid-scale noise on the Bagnold flow at
+    slopes below, inside and above the well-posed window, at 2-3 mesh sizes; CSV + PNG."""
+    module = "dpcollapse.validation.wellposed"
+    plan = _lazy(module, "QUICK" if quick else "FULL")
+    if not config.is_file():
+        raise ConfigError(f"--config = {config}: file not found")
+    n = _number_list("--cells", cells)
+    if n is not None and not all(float(c).is_integer() and c >= 2 for c in n):
+        raise ConfigError(f"--cells = {cells}: must be comma-separated integers >= 2")
+    if steps is not None and not steps > plan.fit_steps:
+        raise ConfigError(f"--steps = {steps}: must be > {plan.fit_steps} (the fit window)")
+    if diffusion_number is not None and not (0 < diffusion_number < math.inf):
+        raise ConfigError(f"--diffusion-number = {diffusion_number}: must be > 0")
+    plan = _lazy(module, "plan_with")(plan, cells=n and [int(c) for c in n], n_steps=steps,
+                                      diffusion_number=diffusion_number)
+    _setup_logging(quiet=True)
+    echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
+    _lazy(module, "wellposedness_map")(config, out, plan, log=echo)
+    echo(f"wrote {out / 'stability_mui.csv'} and {out / 'stability_mui.png'}")
+    return 0
+
+
 from dpcollapse.sweep.commands import plot_sweep, sweep  # no DOLFINx imported
 
 cli.add_command(sweep)

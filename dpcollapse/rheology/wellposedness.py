@@ -18,7 +18,7 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
-__all__ = ["criterion", "well_posed_window", "fraction_ill_posed"]
+__all__ = ["criterion", "well_posed_window", "fraction_ill_posed", "high_wavenumber_growth"]
 
 _I_LO, _I_HI, _N_GRID = 1e-10, 1e6, 4001
 
@@ -76,3 +76,27 @@ def fraction_ill_posed(law, I_values, weights=None):
         raise ValueError("total weight must be > 0")
     ill = criterion(law, I) >= 0
     return float(np.sum(w * ill) / total)
+
+
+def high_wavenumber_growth(law, I, n_grid: int = 20001) -> float:
+    r"""G(I): the largest growth rate of a short wave, in units of k² η/ρ (η = μ p/γ̇).
+
+    Frozen-coefficient linearization about simple shear (γ̇, p) at wavenumber k → ∞, wave
+    vector at angle φ to the shear direction, s = sin 2φ, m = μ(1 − ν/2), ν = Iμ'/μ
+    (incompressible, so δu ⊥ k and δp = n·δσ'·n)::
+
+        σ(k, φ) = −(k² η/ρ) [ν − m s + (1 − ν) s²] / (1 − m s),
+
+    G = max over s ∈ [−1, 1] of −[ν − m s + (1 − ν)s²]/(1 − m s). The bracket is negative for
+    some s iff 4ν(1 − ν) < m², i.e. C(I) > 0: G > 0 exactly where the law is ill posed
+    (then σ grows as k², without bound), G < 0 where every short wave decays at least at
+    |G| k² η/ρ. Needs m < 1 (μ < 1). I > 0 scalar."""
+    I = float(I)
+    mu = float(law.friction(I))
+    nu = I * float(law.friction_derivative(I)) / mu
+    m = mu * (1.0 - 0.5 * nu)
+    if not (I > 0 and m < 1.0):
+        raise ValueError(f"needs I > 0 and mu(1 - nu/2) < 1, got I = {I}, m = {m}")
+    s = np.linspace(-1.0, 1.0, int(n_grid))
+    g = -(nu - m * s + (1.0 - nu) * s**2) / (1.0 - m * s)
+    return float(g.max())
