@@ -546,8 +546,9 @@ class TwoPhaseModel(_Section):
         1.55, "kg/m^3", "Density of the light fluid (default 1e-3 of 1550 kg/m^3: Basilisk's RHOF)",
         gt=0)
     air_viscosity: Number = _f(
-        5.0e-3, "Pa s", "Viscosity of the light fluid (default: Basilisk's mug = 1e-4 in units "
-        "rho sqrt(g) L^1.5 with L = 0.05 m)", gt=0)
+        0.1, "Pa s", "Viscosity of the light fluid (Basilisk's mug = 1e-4 in rho sqrt(g) L^1.5, "
+        "5e-3 Pa s at L = 0.05 m, diverged in the light fluid: docs/benchmarks/"
+        "2026-12-02-column-eulerian.md)", gt=0)
     courant: Number = _f(
         0.4, "", "Courant number of the sub-cycled explicit advection of c (outflow of a cell per "
         "sub-step over its content)", gt=0, le=0.5)
