@@ -489,8 +489,9 @@ class StokesModel(_Section):
     settings are the ``numerics`` section)."""
 
     name: Literal["stokes"] = _f(
-        "stokes", "", "Model: stokes (2D flow, numerics section) or savage_hutter (1D "
-        "depth-averaged, this section; docs/savage_hutter.md)")
+        "stokes", "", "Model: stokes (2D flow, numerics section), savage_hutter (1D "
+        "depth-averaged, this section; docs/savage_hutter.md) or two_phase (granular and light "
+        "fluid on a fixed box; docs/model.md)")
 
 
 class SavageHutterModel(_Section):
