@@ -230,13 +230,13 @@ class TwoPhaseFactory:
         """The box: nothing moves, nothing is remeshed."""
         return FixedDomain()
 
-    def _mesh(self, comm) -> TaggedMesh:
+    def _box(self, comm) -> TaggedMesh:
         m = self.cfg.model
         return box_mesh(comm, m.box_length, m.box_height, self.cfg.geometry.mesh_size)
 
     def start(self, comm) -> TwoPhaseDiscretization:
         """The box with c of the column, at rest."""
-        disc = TwoPhaseDiscretization(self._mesh(comm), self.cfg)
+        disc = TwoPhaseDiscretization(self._box(comm), self.cfg)
         g = self.cfg.geometry
         disc.set_column(g.base_length, g.height)
         return disc
@@ -253,6 +253,6 @@ class TwoPhaseFactory:
     def load_checkpoint(self, path, comm) -> tuple[TwoPhaseDiscretization, dict]:
         """The box of the config with the checkpoint's fields."""
         _, u, p, state, extra = load_checkpoint(path, comm)
-        disc = TwoPhaseDiscretization(self._mesh(comm), self.cfg)
+        disc = TwoPhaseDiscretization(self._box(comm), self.cfg)
         disc.flow.transfer({"velocity": u, "pressure": p, **extra})
         return disc, state
