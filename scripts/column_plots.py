@@ -58,7 +58,9 @@ def law_plot(sweep_dir: Path, out: Path) -> None:
     l0 = 0.1
     groups: dict[tuple[str, str], list[dict]] = {}
     for r in rows:
-        groups.setdefault((r["boundary.bed_condition"], r["geometry.mesh_size"]), []).append(r)
+        # keys the sweep does not vary are absent from sweep.csv (one group then)
+        groups.setdefault((r.get("boundary.bed_condition", "no_slip"), r.get("geometry.mesh_size", "fixed")),
+                          []).append(r)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
     aa = np.logspace(np.log10(0.4), np.log10(12), 50)
     for (bed, h), rs in sorted(groups.items()):
