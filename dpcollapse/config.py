@@ -45,6 +45,7 @@ __all__ = [
     "ModelConfig",
     "SavageHutterModel",
     "StokesModel",
+    "TwoPhaseModel",
     "NumericsConfig",
     "OutputConfig",
     "TimeConfig",
@@ -488,8 +489,9 @@ class StokesModel(_Section):
     settings are the ``numerics`` section)."""
 
     name: Literal["stokes"] = _f(
-        "stokes", "", "Model: stokes (2D flow, numerics section) or savage_hutter (1D "
-        "depth-averaged, this section; docs/savage_hutter.md)")
+        "stokes", "", "Model: stokes (2D flow, numerics section), savage_hutter (1D "
+        "depth-averaged, this section; docs/savage_hutter.md) or two_phase (granular and light "
+        "fluid on a fixed box; docs/model.md)")
 
 
 class SavageHutterModel(_Section):
@@ -531,6 +533,33 @@ class SavageHutterModel(_Section):
         return self
 
 
+class TwoPhaseModel(_Section):
+    """The granular phase and a passive light fluid on a fixed box mesh (seed 003's Gerris and
+    Basilisk method): a volume fraction c advected by the flow, mixture density and viscosity,
+    p = 0 at the surface without tracking it (models/two_phase/, docs/model.md)."""
+
+    name: Literal["two_phase"] = _f("two_phase", "", "The Eulerian two-phase model")
+    box_length: Number = _f(1.0, "m", "Length of the fixed box [0, box_length] (must contain the mass)",
+                            gt=0)
+    box_height: Number = _f(1.0, "m", "Height of the fixed box [0, box_height] (must contain the mass)",
+                            gt=0)
+    air_density: Number = _f(
+        1.55, "kg/m^3", "Density of the light fluid (default 1e-3 of 1550 kg/m^3: Basilisk's RHOF)",
+        gt=0)
+    air_viscosity: Number = _f(
+        0.1, "Pa s", "Viscosity of the light fluid (Basilisk's mug = 1e-4 in rho sqrt(g) L^1.5, "
+        "5e-3 Pa s at L = 0.05 m, diverged in the light fluid: docs/benchmarks/"
+        "2026-12-02-column-eulerian.md)", gt=0)
+    courant: Number = _f(
+        0.4, "", "Courant number of the sub-cycled explicit advection of c (outflow of a cell per "
+        "sub-step over its content)", gt=0, le=0.5)
+    compression: Number = _f(
+        1.0, "", "Interface compression: flux C |u.n| c_donor (1 - c_receiver) towards the fuller "
+        "cell (0: plain upwind)", ge=0, le=2)
+    fraction_threshold: Number = _f(
+        0.5, "", "A cell with c above this counts as granular (mass front, max speed)", gt=0, lt=1)
+
+
 def _name_of(value: Any) -> str:
     """The model class of a mapping or model: its ``name``, stokes when absent."""
     if isinstance(value, dict):
@@ -539,11 +568,13 @@ def _name_of(value: Any) -> str:
 
 
 ModelConfig = Annotated[
-    Annotated[StokesModel, Tag("stokes")] | Annotated[SavageHutterModel, Tag("savage_hutter")],
+    Annotated[StokesModel, Tag("stokes")] | Annotated[SavageHutterModel, Tag("savage_hutter")]
+    | Annotated[TwoPhaseModel, Tag("two_phase")],
     Discriminator(_name_of),
 ]
 #: model.name -> its config class
-MODELS: dict[str, type[_Section]] = {"stokes": StokesModel, "savage_hutter": SavageHutterModel}
+MODELS: dict[str, type[_Section]] = {"stokes": StokesModel, "savage_hutter": SavageHutterModel,
+                                     "two_phase": TwoPhaseModel}
 
 
 class InitialConfig(_Section):
@@ -621,6 +652,8 @@ class Config(_Section):
     def _scene(self) -> Config:
         if self.model.name == "savage_hutter":
             self._depth_averaged()
+        if self.model.name == "two_phase":
+            self._two_phase()
         if self.geometry.shape == "layer" and self.numerics.ale:
             raise ConfigError("numerics.ale = true: a periodic layer has a fixed domain; "
                               "must be false with geometry.shape = layer")
@@ -633,6 +666,23 @@ class Config(_Section):
             raise ConfigError("numerics.linear_solver = 'iterative': not available on a periodic "
                               "layer (geometry.shape = layer); use mumps or superlu_dist")
         return self
+
+    def _two_phase(self) -> None:
+        """The fixed box must contain the column; the rest is refused (one line each)."""
+        g, m = self.geometry, self.model
+        if g.shape != "column":
+            raise ConfigError(f"geometry.shape = {g.shape!r}: not available with model.name = "
+                              "two_phase; must be 'column'")
+        if self.output.format != "xdmf":
+            raise ConfigError(f"output.format = {self.output.format!r}: must be 'xdmf' with "
+                              "model.name = two_phase")
+        if m.box_length < g.base_length or m.box_height < g.height:
+            raise ConfigError(f"model.box_length = {_fmt(m.box_length)}, model.box_height = "
+                              f"{_fmt(m.box_height)}: the box must contain the column "
+                              f"[0, {g.base_length:g}] x [0, {g.height:g}] m")
+        if m.box_length < 2 * g.mesh_size or m.box_height < 2 * g.mesh_size:
+            raise ConfigError(f"geometry.mesh_size = {_fmt(g.mesh_size)}: must be at most half "
+                              "of model.box_length and model.box_height with model.name = two_phase")
 
     def _depth_averaged(self) -> None:
         """What the 1D model cannot represent is refused (one line each)."""

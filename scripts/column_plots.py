@@ -2,6 +2,7 @@
 
     python scripts/column_plots.py front RUN_DIR OUT.png      # front, top height vs t sqrt(g/H0)
     python scripts/column_plots.py law SWEEP_DIR OUT.png      # runout law from sweep.csv
+    python scripts/column_plots.py fraction OUT.png RUN_DIR...  # two_phase: c at the last output
 
 ``law`` also prints the fitted power laws ΔL/L0 = c a^n on a ≤ 3 and a ≥ 3 and
 H_f/L0 = c a^n on a ≥ 0.7, per bed condition and mesh size, from the cases at rest.
@@ -34,7 +35,8 @@ def front_plot(run_dir: Path, out: Path) -> None:
         ax.plot(t, [(float(r[key]) - l0) / h0 for r in rows], label=f"({label} − L0)/H0")
     ax.plot(t, [float(r["max_height"]) / h0 for r in rows], label="top height / H0")
     ax.set_xlabel("t √(g/H0)")
-    ax.set_title(f"column a = {h0 / l0:.3g}, mesh {cfg['geometry']['mesh_size']} m")
+    model = cfg.get("model", {}).get("name", "stokes")
+    ax.set_title(f"column a = {h0 / l0:.3g}, mesh {cfg['geometry']['mesh_size']} m, model {model}")
     ax.legend()
     ax.grid(alpha=0.3)
     fig.tight_layout()
@@ -56,7 +58,9 @@ def law_plot(sweep_dir: Path, out: Path) -> None:
     l0 = 0.1
     groups: dict[tuple[str, str], list[dict]] = {}
     for r in rows:
-        groups.setdefault((r["boundary.bed_condition"], r["geometry.mesh_size"]), []).append(r)
+        # keys the sweep does not vary are absent from sweep.csv (one group then)
+        groups.setdefault((r.get("boundary.bed_condition", "no_slip"), r.get("geometry.mesh_size", "fixed")),
+                          []).append(r)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
     aa = np.logspace(np.log10(0.4), np.log10(12), 50)
     for (bed, h), rs in sorted(groups.items()):
@@ -90,6 +94,29 @@ def law_plot(sweep_dir: Path, out: Path) -> None:
     fig.savefig(out, dpi=120)
 
 
+def fraction_plot(out: Path, run_dirs: list[Path]) -> None:
+    """The granular volume fraction c (model two_phase) of each run at its last output."""
+    from dpcollapse.plot import read_cell_field, read_series
+
+    fig, axes = plt.subplots(len(run_dirs), 1, figsize=(8, 2.2 * len(run_dirs)), squeeze=False)
+    for ax, run_dir in zip(axes[:, 0], run_dirs):
+        cfg = json.loads((run_dir / "run.json").read_text())["config"]
+        t, c = read_cell_field(run_dir, "volume_fraction")[-1]
+        _, x, cells = read_series(run_dir)[-1]
+        im = ax.tripcolor(x[:, 0], x[:, 1], cells, facecolors=c, vmin=0, vmax=1, cmap="viridis")
+        g = cfg["geometry"]
+        ax.set_title(f"a = {g['height'] / g['base_length']:.3g}, mesh {g['mesh_size']} m, "
+                     f"t = {t:.3f} s", fontsize=9)
+        ax.set_aspect("equal")
+        fig.colorbar(im, ax=ax, label="c")
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+
+
 if __name__ == "__main__":
-    kind, src, dst = sys.argv[1], Path(sys.argv[2]), Path(sys.argv[3])
-    (front_plot if kind == "front" else law_plot)(src, dst)
+    kind = sys.argv[1]
+    if kind == "fraction":
+        fraction_plot(Path(sys.argv[2]), [Path(a) for a in sys.argv[3:]])
+    else:
+        src, dst = Path(sys.argv[2]), Path(sys.argv[3])
+        (front_plot if kind == "front" else law_plot)(src, dst)

@@ -1,0 +1,97 @@
+"""UFL terms of the Eulerian two-phase model (seed 003: the granular fluid covered by a passive
+light fluid, so that p = 0 at the surface comes for free).
+
+With c ∈ [0, 1] the granular volume fraction (DG0)::
+
+    ρ(c) = c ρ_g + (1 − c) ρ_a                                        "mixture_density"
+    σ'   = [c S_g(u, p) + (1 − c) 2η_a] D(u)                          ``MixtureRheology``
+    ∂c/∂t + ∇·(c u) = 0                                                "fraction_flux"
+
+The flow terms are those of ``forms.picard`` with ρ(c) and the mixture law. The volume
+fraction is advanced explicitly by a finite-volume scheme: for each cell K,
+c_K ← c_K − Δt/|K| ∫_∂K F ds, with the upwind flux F = (u·n)⁺ c_K − (u·n)⁻ c_nb across each
+facet (outflow only at the boundary: the light fluid enters) and an interface-compression
+flux towards the fuller cell, C |u·n| c_donor (1 − c_receiver) (``compression_flux``).
+Each flux is single-valued on a facet, so Σ_K |K| c_K changes only by the boundary outflow.
+"""
+
+from __future__ import annotations
+
+import ufl
+
+from dpcollapse.rheology.kinematics import strain_rate
+
+
+def mixture(c, granular, light):
+    """c a_g + (1 − c) a_a: the volume-weighted mixture of a granular and a light quantity."""
+    return c * granular + (1.0 - c) * light
+
+
+class MixtureRheology:
+    """The granular law in the granular phase, a Newtonian fluid η_a in the light phase:
+    S = c S_g(u, p) + (1 − c) 2η_a (the secant viscosity of ``rheology.base``), σ' = S D(u).
+    It offers the ``Rheology`` protocol to ``forms.picard`` (the law is any Rheology)."""
+
+    rate_dependent = True
+
+    def __init__(self, law, fraction, light_viscosity):
+        self.law, self.c, self.eta_a = law, fraction, light_viscosity
+        self.cohesion = law.cohesion
+        self.viscosity_cap = law.viscosity_cap
+
+    def yield_stress(self, p):
+        """c κ(p) [Pa]."""
+        return self.c * self.law.yield_stress(p)
+
+    def rate_viscosity(self, u, p, epsilon):
+        """c η_g + (1 − c) η_a [Pa s]."""
+        return mixture(self.c, self.law.rate_viscosity(u, p, epsilon), self.eta_a)
+
+    def capped_rate_viscosity(self, u, p, epsilon):
+        return mixture(self.c, self.law.capped_rate_viscosity(u, p, epsilon), self.eta_a)
+
+    def secant_viscosity(self, u, p, epsilon):
+        """S = c S_g(u, p) + (1 − c) 2η_a [Pa s]."""
+        return mixture(self.c, self.law.secant_viscosity(u, p, epsilon), 2.0 * self.eta_a)
+
+    def deviatoric_stress(self, u, p, epsilon):
+        return self.secant_viscosity(u, p, epsilon) * strain_rate(u)
+
+    def diagnostic_fields(self, u, p, epsilon) -> dict:
+        return self.law.diagnostic_fields(u, p, epsilon)
+
+    def well_posed_window(self):
+        return self.law.well_posed_window()
+
+
+def _positive(x):
+    return 0.5 * (x + abs(x))
+
+
+def fraction_flux(c, u, v, n, dS, ds):
+    """∫_∂K F v: the upwind flux of c u out of each cell (v the DG0 test function)::
+
+        interior facets  ∫ ((u·n⁺)⁺ c⁺ − (u·n⁺)⁻ c⁻) (v⁺ − v⁻) dS
+        boundary         ∫ (u·n)⁺ c v ds            (outflow; the inflow is light fluid)
+    """
+    un = ufl.dot(u('+'), n('+'))
+    flux = _positive(un) * c('+') - _positive(-un) * c('-')
+    return flux * (v('+') - v('-')) * dS + _positive(ufl.dot(u, n)) * c * v * ds
+
+
+def compression_flux(c, u, v, n, dS, coefficient):
+    """∫ C |u·n| φ (v⁺ − v⁻) dS, the interface compression: across a facet the flux from the
+    emptier cell to the fuller one, φ = c⁺ (1 − c⁻) when c⁻ > c⁺, −c⁻ (1 − c⁺) when c⁺ > c⁻
+    (a donor gives at most what it holds, a receiver takes at most its room)."""
+    un = abs(ufl.dot(u('+'), n('+')))
+    phi = ufl.conditional(ufl.gt(c('-'), c('+')), c('+') * (1.0 - c('-')),
+                          -c('-') * (1.0 - c('+')))
+    return coefficient * un * phi * (v('+') - v('-')) * dS
+
+
+def outflow_rate(u, v, n, dS, ds, coefficient):
+    """∫_∂K ((u·n)⁺ + C |u·n|) v: the largest rate at which a cell can empty, times |K|
+    (sub-step Δt ≤ Co |K| / this keeps c ≥ 0)."""
+    rate_plus = _positive(ufl.dot(u('+'), n('+'))) + coefficient * abs(ufl.dot(u('+'), n('+')))
+    rate_minus = _positive(ufl.dot(u('-'), n('-'))) + coefficient * abs(ufl.dot(u('-'), n('-')))
+    return (rate_plus * v('+') + rate_minus * v('-')) * dS + _positive(ufl.dot(u, n)) * v * ds

@@ -1,0 +1,258 @@
+"""The Eulerian two-phase model in the time loop (``simulation``): the loop's protocols
+(``loop``) for a fixed box mesh carrying the granular volume fraction c.
+
+* ``box_mesh``: the structured triangle mesh of [0, box_length] × [0, box_height], cells of
+  ``geometry.mesh_size``, sides tagged bed (y = 0), symmetry (x = 0), right, top;
+* ``TwoPhaseDiscretization``: the flow (``flow.TwoPhaseFlow``), its measures from c (mass
+  front, thickness front and heights from h(x) = ∫ c dy, kinetic energy and area of the
+  granular phase), its outputs (c, u, p and the law's fields such as the inertial number);
+* ``TwoPhaseFactory``: ``model.name = two_phase``: a fixed domain, the column as the initial
+  c (exact cell overlap), checkpoints of u, p, c.
+
+The sides: the bed of ``boundary.bed_condition`` (no slip, or Coulomb μ_b on p: zero in the
+light fluid), u_x = 0 on the symmetry wall x = 0 and on the right side (slip), and the top
+open (σ·n = 0: the light fluid leaves and enters freely, and the pressure needs no gauge).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx import mesh as dmesh
+from mpi4py import MPI
+
+from dpcollapse import compat
+from dpcollapse.domain.fixed import FixedDomain
+from dpcollapse.geometry.mesher import BED, LEFT, RIGHT, SURFACE, TaggedMesh
+from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
+from dpcollapse.models.stokes.regularized import picard_settings
+from dpcollapse.models.stokes.state import FlowParameters
+from dpcollapse.models.two_phase.flow import LightFluid, TwoPhaseFlow
+from dpcollapse.models.two_phase.fraction import owned_triangles, rectangle_fraction
+from dpcollapse.rheology.drucker_prager import DruckerPrager
+from dpcollapse.rheology.mu_i import MuI
+from dpcollapse.scenes.base import Boundary, BoundaryKind, bed_boundary, film_threshold
+
+
+def box_mesh(comm, length: float, height: float, mesh_size: float) -> TaggedMesh:
+    """[0, length] × [0, height] in triangles of about ``mesh_size``, sides tagged BED,
+    LEFT (the symmetry wall), RIGHT and SURFACE (the open top)."""
+    nx, ny = max(2, round(length / mesh_size)), max(2, round(height / mesh_size))
+    mesh = compat.create_rectangle(comm, (0.0, 0.0), (length, height), (nx, ny))
+    fdim = mesh.topology.dim - 1
+    tol = 1e-9 * max(length, height)
+    markers = ((BED, lambda x: np.abs(x[1]) < tol),
+               (LEFT, lambda x: np.abs(x[0]) < tol),
+               (RIGHT, lambda x: np.abs(x[0] - length) < tol),
+               (SURFACE, lambda x: np.abs(x[1] - height) < tol))
+    indices, values = [], []
+    for tag, where in markers:
+        facets = dmesh.locate_entities_boundary(mesh, fdim, where)
+        indices.append(facets)
+        values.append(np.full(len(facets), tag, dtype=np.int32))
+    indices, first = np.unique(np.concatenate(indices), return_index=True)
+    mesh.topology.create_connectivity(fdim, mesh.topology.dim)
+    return TaggedMesh(mesh, compat.meshtags(mesh, fdim, indices, np.concatenate(values)[first]))
+
+
+def box_boundaries(cfg) -> tuple[Boundary, ...]:
+    b = cfg.boundary
+    return (bed_boundary(BED, b.bed_condition, b.mu_bed),
+            Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0)),
+            Boundary(RIGHT, "right", BoundaryKind.SLIP, (1.0, 0.0)),
+            Boundary(SURFACE, "top", BoundaryKind.FREE_SURFACE))
+
+
+def granular_law(cfg):
+    """The granular phase's law (as ``discretization.rheology``, which lives above models/)."""
+    m = cfg.material
+    if m.rheology == "mu_i":
+        return MuI(mu_s=m.mu_s, mu_2=m.mu_2, I0=m.inertial_number_I0, grain_diameter=m.grain_diameter,
+                   grain_density=m.grain_density, cohesion=m.cohesion, viscosity_cap=m.viscosity_cap)
+    return DruckerPrager(m.viscosity, m.mu_s, m.cohesion)
+
+
+def make_flow(tagged: TaggedMesh, cfg) -> TwoPhaseFlow:
+    m, model = cfg.material, cfg.model
+    params = FlowParameters(density=m.density, gravity=m.gravity,
+                            bed_angle=math.radians(cfg.geometry.bed_angle),
+                            rheology=granular_law(cfg), boundaries=box_boundaries(cfg))
+    light = LightFluid(model.air_density, model.air_viscosity, model.courant, model.compression)
+    return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
+
+
+class TwoPhaseDiscretization:
+    """The two-phase flow on the box, its measures and output fields (``loop``)."""
+
+    #: h(x = 0) [m]; min and max of c; advection sub-steps of the last step
+    #: and the kinetic energy ∫ c ρ |u|²/2 over every cell (the haze of c the light fluid
+    #: carries included) [J/m]
+    extra_measures = ("wall_height", "fraction_min", "fraction_max", "substeps",
+                      "mixture_kinetic_energy")
+
+    def __init__(self, tagged: TaggedMesh, cfg):
+        self.cfg, self.tagged = cfg, tagged
+        self.mesh = mesh = tagged.mesh
+        self.comm = mesh.comm
+        self.flow = flow = make_flow(tagged, cfg)
+        self.fraction = flow.fraction
+        g, model = cfg.geometry, cfg.model
+        grains = cfg.material.grain_diameter if cfg.material.rheology == "mu_i" else 0.0
+        self.film_threshold = film_threshold(grains, g.mesh_size)
+        self.threshold = model.fraction_threshold
+        # columns of cells for h(x) = ∫ c dy: bins of the structured mesh along x
+        self.nx = max(2, round(model.box_length / g.mesh_size))
+        self.dx_bin = model.box_length / self.nx
+        n = compat.num_owned_cells(mesh)
+        tri = owned_triangles(mesh)
+        self._cells = compat.cell_dofs(self.fraction.S0)[:n, 0]
+        self._bin = np.clip((tri[:, :, 0].mean(axis=1) / self.dx_bin).astype(int), 0, self.nx - 1)
+        self._xmax = tri[:, :, 0].max(axis=1)
+        self._volume = self.fraction.volume[self._cells] if len(self._cells) else np.zeros(0)
+        self._min_edge = min(model.box_length / self.nx,
+                             model.box_height / max(2, round(model.box_height / g.mesh_size)))
+        rho = cfg.material.density
+        u, p = ufl.split(flow.solution)
+        c = self.fraction.c
+        dx = ufl.dx(domain=mesh)
+        # the granular cells (c > fraction_threshold): 1 there, 0 elsewhere (set in measures)
+        self._granular = fem.Function(self.fraction.S0)
+        energy = 0.5 * rho * c * ufl.inner(flow.u_old, flow.u_old)
+        self._kinetic = fem.form(self._granular * energy * dx)
+        self._kinetic_mixture = fem.form(energy * dx)
+        f = fem.Constant(mesh, np.array(flow.params.body_force, dtype=compat.ScalarType))
+        self._gravity_moment = fem.form(rho * c * ufl.inner(f, ufl.SpatialCoordinate(mesh)) * dx)
+        V1, S1, S0 = (compat.vector_space(mesh, 1), compat.scalar_space(mesh, 1),
+                      compat.scalar_space(mesh, 0, "DG"))
+        self.out_velocity = fem.Function(V1, name="velocity")
+        self.out_pressure = fem.Function(S1, name="pressure")
+        self._speed = fem.Function(S0)
+        self._speed_expr = compat.expression(ufl.sqrt(ufl.inner(flow.u_old, flow.u_old)), S0)
+        eps = cfg.numerics.epsilon
+        self.out_extra = {name: (fem.Function(S0, name=name), compat.expression(expr, S0))
+                          for name, expr in flow.params.rheology.diagnostic_fields(u, p, eps).items()}
+
+    def set_column(self, length: float, height: float) -> None:
+        """c = |K ∩ [0, L0] × [0, H0]| / |K| in each cell (exact)."""
+        values = rectangle_fraction(owned_triangles(self.mesh), (0.0, 0.0), (length, height))
+        c = self.fraction.c
+        c.x.array[self._cells] = values
+        c.x.scatter_forward()
+
+    # ------------------------------------------------------------------ measures
+    def area(self) -> float:
+        """∫ c dx [m²]."""
+        return self.fraction.integral()
+
+    def thickness(self) -> np.ndarray:
+        """h_j = ∫ c dy of each column j of cells (width ``dx_bin``) [m], on every rank."""
+        own = self.fraction.c.x.array[self._cells]
+        local = np.bincount(self._bin, weights=own * self._volume, minlength=self.nx)
+        return self.comm.allreduce(local, op=MPI.SUM) / self.dx_bin
+
+    def max_step(self) -> float:
+        """None of its own: the advection sub-cycles inside the step."""
+        return math.inf
+
+    def _granular_speed(self) -> np.ndarray:
+        self._speed.interpolate(self._speed_expr)
+        own = self.fraction.c.x.array[self._cells] > self.threshold
+        return self._speed.x.array[self._cells][own]
+
+    def courant_rate(self) -> float:
+        """max |uⁿ| at the granular cells' midpoints / the shortest cell edge [1/s]."""
+        speed = self._granular_speed()
+        top = float(speed.max()) if len(speed) else 0.0
+        return self.comm.allreduce(top, op=MPI.MAX) / self._min_edge
+
+    def measures(self) -> dict:
+        """Mass front (furthest x of a cell with c > model.fraction_threshold), thickness
+        front (right edge of the furthest column with h ≥ film_threshold), max height
+        max_j h_j, kinetic energy ∫ c ρ |u|²/2 over the granular cells (c > the threshold:
+        the haze of c that the light fluid's circulation carries is left out, measured to
+        hold 97 % of the mixture's energy once the deposit stops), gravity's moment
+        ∫ c ρ f·x, area ∫ c, max speed of the granular cells, bounds of c."""
+        c = self.fraction.c.x.array[self._cells]
+        granular = c > self.threshold
+        self._granular.x.array[:] = (self.fraction.c.x.array > self.threshold).astype(float)
+        front = float(self._xmax[granular].max()) if granular.any() else 0.0
+        h = self.thickness()
+        thick = np.nonzero(h >= self.film_threshold)[0]
+        speed = self._granular_speed()
+        lo, hi = self.fraction.bounds()
+        return {
+            "front": self.comm.allreduce(front, op=MPI.MAX),
+            "thick_front": float((thick[-1] + 1) * self.dx_bin) if len(thick) else -math.inf,
+            "max_height": float(h.max()),
+            "kinetic_energy": self.comm.allreduce(fem.assemble_scalar(self._kinetic), op=MPI.SUM),
+            "gravity_moment": self.comm.allreduce(fem.assemble_scalar(self._gravity_moment), op=MPI.SUM),
+            "area": self.area(),
+            "max_speed": self.comm.allreduce(float(speed.max()) if len(speed) else 0.0, op=MPI.MAX),
+            "min_angle": math.nan, "min_detJ": math.nan, "ill_posed_fraction": math.nan,
+            "wall_height": float(h[0]),
+            "fraction_min": lo, "fraction_max": hi,
+            "substeps": self.fraction.substeps,
+            "mixture_kinetic_energy": self.comm.allreduce(
+                fem.assemble_scalar(self._kinetic_mixture), op=MPI.SUM),
+        }
+
+    def output_functions(self) -> list:
+        """c (DG0), u and p (P1), and the law's fields (μ(I): the inertial number, DG0)."""
+        sol = self.flow.solution
+        self.out_velocity.interpolate(sol.sub(0))
+        self.out_pressure.interpolate(sol.sub(1))
+        fields = [self.fraction.c, self.out_velocity, self.out_pressure]
+        for function, expr in self.out_extra.values():
+            function.interpolate(expr)
+            fields.append(function)
+        return fields
+
+    def destroy(self) -> None:
+        self.flow.destroy()
+
+
+class TwoPhaseFactory:
+    """The two-phase model (``model.name = two_phase``) for the loop."""
+
+    model_name = "two_phase"
+
+    def __init__(self, cfg):
+        self.cfg = cfg
+
+    @classmethod
+    def from_config(cls, cfg) -> TwoPhaseFactory:
+        return cls(cfg)
+
+    def domain(self) -> FixedDomain:
+        """The box: nothing moves, nothing is remeshed."""
+        return FixedDomain()
+
+    def _box(self, comm) -> TaggedMesh:
+        m = self.cfg.model
+        return box_mesh(comm, m.box_length, m.box_height, self.cfg.geometry.mesh_size)
+
+    def start(self, comm) -> TwoPhaseDiscretization:
+        """The box with c of the column, at rest."""
+        disc = TwoPhaseDiscretization(self._box(comm), self.cfg)
+        g = self.cfg.geometry
+        disc.set_column(g.base_length, g.height)
+        return disc
+
+    def rebuild(self, tagged):
+        raise NotImplementedError("a fixed box is never rebuilt")
+
+    def save_checkpoint(self, path, disc: TwoPhaseDiscretization, state: dict) -> None:
+        """The mesh, uⁿ, pⁿ, cⁿ and the loop state (collective; rank 0 writes)."""
+        fields = dict(disc.flow.snapshot())
+        u, p = fields.pop("velocity"), fields.pop("pressure")
+        save_checkpoint(path, disc.tagged, u, p, state, fields)
+
+    def load_checkpoint(self, path, comm) -> tuple[TwoPhaseDiscretization, dict]:
+        """The box of the config with the checkpoint's fields."""
+        _, u, p, state, extra = load_checkpoint(path, comm)
+        disc = TwoPhaseDiscretization(self._box(comm), self.cfg)
+        disc.flow.transfer({"velocity": u, "pressure": p, **extra})
+        return disc, state

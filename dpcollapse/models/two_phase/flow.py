@@ -1,0 +1,122 @@
+"""One time step of the two-phase model: the Picard fixed point of the regularized flow
+(``models.stokes.regularized``) with the mixture density ρ(cⁿ) and the mixture law
+(``forms.two_phase``), then the advection of c by the converged u^{n+1}
+(``fraction.VolumeFraction``, sub-cycled).
+
+    ρ(cⁿ) (u^{n+1} − uⁿ)/Δt + ρ(cⁿ) (u^{n+1,k}·∇) u^{n+1} − ∇·(S(cⁿ, u^{n+1,k}, p^{n+1,k}) D(u^{n+1}))
+        + ∇p^{n+1} = ρ(cⁿ) g,   ∇·u^{n+1} = 0;       then  c^{n+1} = A_Δt(cⁿ; u^{n+1})
+
+The mixture coefficients use c clamped to [0, 1] (the advected c may leave it by its overshoot).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import ufl
+from dolfinx import fem
+
+from dpcollapse import compat
+from dpcollapse.forms.picard import picard_terms
+from dpcollapse.forms.two_phase import MixtureRheology, mixture
+from dpcollapse.models.stokes.regularized import PicardSettings, RegularizedFlow
+from dpcollapse.models.stokes.state import FlowParameters
+from dpcollapse.models.two_phase.fraction import VolumeFraction
+from dpcollapse.transfer import CellwiseField, concatenate
+
+
+@dataclass(frozen=True)
+class LightFluid:
+    """The passive light fluid and the advection settings of c."""
+
+    density: float        # ρ_a [kg/m³]
+    viscosity: float      # η_a [Pa s]
+    courant: float        # of the advection sub-steps
+    compression: float    # C of the interface compression
+
+
+class TwoPhaseFlow(RegularizedFlow):
+    """The regularized flow of the mixture on a fixed mesh, carrying c."""
+
+    #: not a ``numerics.method``: the registry must not take it for the regularized model
+    method = None
+
+    def __init__(self, tagged, params: FlowParameters, settings: PicardSettings, light: LightFluid):
+        self.light = light
+        super().__init__(tagged, params, settings)
+        u = ufl.split(self.solution)[0]
+        self.fraction.bind(u)
+
+    # ------------------------------------------------------------------ forms
+    def _build_forms(self) -> None:
+        mesh, p, light = self.mesh, self.params, self.light
+        self.surface_gamma = None   # no surface tension: the surface is not a boundary here
+        self.fraction = VolumeFraction(mesh, light.courant, light.compression)
+        c = self.fraction.c
+        clamped = ufl.min_value(ufl.max_value(c, 0.0), 1.0)
+        (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
+        u_k, p_k = ufl.split(self.iterate)
+        self._rho = rho = mixture(clamped, p.density, light.density)
+        f = fem.Constant(mesh, np.array(p.body_force, dtype=compat.ScalarType))
+        self.epsilon = eps = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon))
+        eps_f = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon_friction))
+        degree = self.settings.quadrature_degree
+        metadata = {} if degree is None else {"quadrature_degree": degree}
+        dx = ufl.Measure("dx", domain=mesh, metadata=metadata)
+        ds = ufl.Measure("ds", domain=mesh, subdomain_data=self.tagged.facet_tags, metadata=metadata)
+        n = ufl.FacetNormal(mesh)
+        self.law = law = MixtureRheology(p.rheology, clamped, light.viscosity)
+        walls = [(f"{b.name}_friction", b.friction, b.tag) for b in p.boundaries if b.has_friction]
+        self.terms, self.rhs_terms = picard_terms(
+            law, rho=rho, dt=self.dt, body_force=f, epsilon=eps, epsilon_friction=eps_f,
+            u_iter=u_k, p_iter=p_k, u_old=self.u_old, mesh_velocity=self.mesh_velocity,
+            trial=(u, pr), test=(v, q), n=n, dx=dx, ds=ds,
+            friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)])
+        self.system = self._make_system(sum(self.terms.values()), sum(self.rhs_terms.values()))
+
+    # ------------------------------------------------------------------ the step
+    def solve_step(self, dt: float):
+        """The Picard step of the flow with cⁿ, then c^{n+1} advected by u^{n+1}."""
+        report = super().solve_step(dt)
+        if report.converged:
+            self.fraction.advance(dt)
+        return report
+
+    def accept_step(self) -> None:
+        super().accept_step()
+        self.fraction.accept()
+
+    def reset_iterate(self) -> None:
+        super().reset_iterate()
+        self.fraction.reject()
+
+    def copy_state_from(self, other) -> None:
+        super().copy_state_from(other)
+        self.fraction.c.x.array[:] = other.fraction.c.x.array
+
+    # ------------------------------------------------------------------ snapshot
+    def snapshot(self) -> dict:
+        """uⁿ, pⁿ and "volume_fraction" cⁿ (per cell, as a cellwise-constant P1 field)."""
+        fields = super().snapshot()
+        mesh = self.mesh
+        n = compat.num_owned_cells(mesh)
+        tri = mesh.geometry.x[:, :2][compat.geometry_dofmap(mesh)[:n, :3]]
+        values = self.fraction.c.x.array[compat.cell_dofs(self.fraction.S0)[:n, 0]]
+        local = CellwiseField(vertices=tri, points=tri, values=np.repeat(values[:, None], 3, axis=1),
+                              degree=1)
+        fields["volume_fraction"] = concatenate(self.comm.allgather(local))
+        return fields
+
+    def transfer(self, fields: dict) -> float:
+        """The state of ``snapshot`` fields; c evaluated at the cell midpoints."""
+        outside = super().transfer({k: v for k, v in fields.items() if k != "volume_fraction"})
+        if "volume_fraction" in fields:
+            S0 = self.fraction.S0
+            x = S0.tabulate_dof_coordinates()[:, :2]
+            self.fraction.c.x.array[:] = fields["volume_fraction"].evaluate(x)[:, 0]
+        return outside
+
+    def destroy(self) -> None:
+        super().destroy()
+        self.fraction.destroy()

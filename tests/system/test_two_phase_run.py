@@ -1,0 +1,64 @@
+"""The Eulerian two-phase model through the time loop: the column collapses on the fixed box
+(the front moves, the area of the granular phase stays), the outputs and the checkpoint are
+written, a checkpoint resumes, and 2 MPI ranks agree with one."""
+
+import json
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from dpcollapse.io.diagnostics import read_diagnostics
+from tests.helpers import simulation
+
+CONFIG = "column_eulerian_a0.5.yaml"
+#: 1 cm cells on the 0.3 m × 0.06 m box (30 × 6 squares, 360 triangles)
+SMALL = ["geometry.mesh_size=0.01", "time.output_every=50", "time.checkpoint_every=50"]
+
+
+def test_column_spreads_on_the_fixed_box(tmp_path):
+    """a = 0.5 to t = 0.2 s at 1 cm: the mass front passes L0 + L0/4, the thickness front
+    follows it, the area drift is below 1e-6, c stays within [0, 1.05] and the run wrote its
+    fields (c, velocity, pressure, inertial number)."""
+    summary = simulation(CONFIG, SMALL + ["time.end_time=0.2"], tmp_path, comm=MPI.COMM_SELF).run()
+    assert summary["status"] == "end_time" and summary["model"] == "two_phase"
+    assert summary["front"] > 0.125
+    assert 0.11 < summary["thick_front"] <= summary["front"] + 0.01
+    assert 0.045 < summary["max_height"] <= 0.0501
+    assert abs(summary["area_drift"]) < 1e-6
+    assert -1e-12 <= summary["fraction_min"] and summary["fraction_max"] < 1.05
+    columns = read_diagnostics(tmp_path / "diagnostics.csv")
+    assert min(columns["substeps"]) >= 1 and max(columns["substeps"]) >= 2
+    text = (tmp_path / "solution.xdmf").read_text()
+    for name in ("volume_fraction", "velocity", "pressure", "inertial_number"):
+        assert f'Name="{name}"' in text, name
+    assert json.loads((tmp_path / "run.json").read_text())["summary"]["model"] == "two_phase"
+
+
+def test_resume_continues_the_same_run(tmp_path):
+    """A run stopped at 0.05 s and resumed to 0.1 s ends where the uninterrupted one does."""
+    whole = simulation(CONFIG, SMALL + ["time.end_time=0.1"], tmp_path / "a", comm=MPI.COMM_SELF).run()
+    simulation(CONFIG, SMALL + ["time.end_time=0.05", "time.checkpoint_every=10"], tmp_path / "b",
+               comm=MPI.COMM_SELF).run()
+    resumed = simulation(CONFIG, SMALL + ["time.end_time=0.1"], tmp_path / "b", comm=MPI.COMM_SELF,
+                         resume=True).run()
+    assert resumed["steps"] == whole["steps"]
+    for key in ("front", "max_height", "area"):
+        assert resumed[key] == pytest.approx(whole[key], rel=1e-9), key
+    assert resumed["kinetic_energy"] == pytest.approx(whole["kinetic_energy"], rel=1e-6)
+
+
+@pytest.mark.mpi
+def test_two_ranks_agree_with_one(shared_tmp, comm, tmp_path):
+    """The facet fluxes of c across the partition boundary (reverse scatter, ghost update)
+    give the serial run: same steps, fronts, heights; area and energy to round-off of LU."""
+    over = SMALL + ["time.end_time=0.1"]
+    parallel = simulation(CONFIG, over, shared_tmp / "par", comm=comm).run()
+    serial = simulation(CONFIG, over, tmp_path / f"ser{comm.rank}", comm=MPI.COMM_SELF).run()
+    assert parallel["steps"] == serial["steps"]
+    for key in ("front", "thick_front", "max_height"):
+        assert parallel[key] == pytest.approx(serial[key], abs=1e-12), key
+    for key in ("area", "kinetic_energy", "fraction_max"):
+        assert parallel[key] == pytest.approx(serial[key], rel=1e-7), key
+    assert comm.allgather(parallel["steps"]) == [parallel["steps"]] * comm.size
+    assert np.isfinite(parallel["kinetic_energy"]) and parallel["front"] > 0.1
