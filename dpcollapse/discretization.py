@@ -22,10 +22,9 @@ from dpcollapse.ale.quality import courant_rate
 from dpcollapse.config import Config
 from dpcollapse.domain.base import make_domain
 from dpcollapse.geometry.mesher import DOMAIN, TaggedMesh
-from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
+from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
 from dpcollapse.rheology.base import Rheology
-from dpcollapse.rheology.drucker_prager import DruckerPrager
-from dpcollapse.rheology.mu_i import MuI
+from dpcollapse.rheology.choice import law_from_material
 from dpcollapse.scenes.base import film_threshold, thickness_front
 from dpcollapse.scenes.registry import build_mesh, scene as make_scene
 from dpcollapse.models.registry import model_class
@@ -40,11 +39,7 @@ FLOWING_SPEED = 1e-3
 def rheology(cfg: Config) -> Rheology:
     """The constitutive law of ``material`` (a :class:`~dpcollapse.rheology.base.Rheology`):
     DruckerPrager or MuI."""
-    m = cfg.material
-    if m.rheology == "mu_i":
-        return MuI(mu_s=m.mu_s, mu_2=m.mu_2, I0=m.inertial_number_I0, grain_diameter=m.grain_diameter,
-                   grain_density=m.grain_density, cohesion=m.cohesion, viscosity_cap=m.viscosity_cap)
-    return DruckerPrager(m.viscosity, m.mu_s, m.cohesion)
+    return law_from_material(cfg.material)
 
 
 def flow_parameters(cfg: Config, scene=None) -> FlowParameters:
@@ -279,12 +274,10 @@ class StokesFactory:
 
     def save_checkpoint(self, path, disc: Discretization, state: dict) -> None:
         """The mesh, the model's snapshot and the loop state (collective; rank 0 writes)."""
-        fields = dict(disc.flow.snapshot())
-        u, p = fields.pop("velocity"), fields.pop("pressure")
-        save_checkpoint(path, disc.tagged, u, p, state, fields)
+        save_model_checkpoint(path, disc.tagged, disc.flow.snapshot(), state)
 
     def load_checkpoint(self, path, comm) -> tuple[Discretization, dict]:
-        tagged, u, p, state, extra = load_checkpoint(path, comm)
+        tagged, fields, state = load_model_checkpoint(path, comm)
         disc = Discretization(tagged, self.cfg)
-        disc.flow.transfer({"velocity": u, "pressure": p, **extra})
+        disc.flow.transfer(fields)
         return disc, state

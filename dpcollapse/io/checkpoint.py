@@ -79,6 +79,20 @@ def save_checkpoint(path: Path, tagged: TaggedMesh, u: CellwiseField, p: Cellwis
     write_npz_atomic(path, arrays)
 
 
+def save_model_checkpoint(path: Path, tagged: TaggedMesh, snapshot: dict, state: dict) -> None:
+    """:func:`save_checkpoint` of a model's ``snapshot()`` (named fields with "velocity"
+    and "pressure"; the others go in as extra fields)."""
+    fields = dict(snapshot)
+    u, p = fields.pop("velocity"), fields.pop("pressure")
+    save_checkpoint(path, tagged, u, p, state, fields)
+
+
+def load_model_checkpoint(path: Path, comm) -> tuple[TaggedMesh, dict, dict]:
+    """(mesh, named fields for the model's ``transfer``, loop state) of a checkpoint."""
+    tagged, u, p, state, extra = load_checkpoint(path, comm)
+    return tagged, {"velocity": u, "pressure": p, **extra}, state
+
+
 def write_npz_atomic(path: Path, arrays: dict) -> None:
     """Write ``arrays`` to ``path`` (.npz) through a temporary file and a rename, keeping
     the previous file as its ``previous_path`` (rank 0 only)."""

@@ -89,12 +89,11 @@ class RegularizedFlow(StokesState):
         self.anderson = Anderson(self.comm, settings.anderson_depth, self._size_local, weights)
 
     # ------------------------------------------------------------------ forms
-    def _build_forms(self) -> None:
-        mesh, p = self.mesh, self.params
-        (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
-        u_k, p_k = ufl.split(self.iterate)
-        self._rho = rho = fem.Constant(mesh, compat.ScalarType(p.density))
-        f = fem.Constant(mesh, np.array(p.body_force, dtype=compat.ScalarType))
+    def _coefficients(self):
+        """(f, ε, ε_f, dx, ds, n): the body force, the regularizations (``self.epsilon`` is
+        the ε a continuation changes) and the measures with the settings' quadrature."""
+        mesh = self.mesh
+        f = fem.Constant(mesh, np.array(self.params.body_force, dtype=compat.ScalarType))
         self.epsilon = eps = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon))  # ε
         eps_f = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon_friction))
         # numerics.quadrature_degree q: the nonlinear terms (√, [·]_+, μ(I)) get degree q
@@ -104,7 +103,14 @@ class RegularizedFlow(StokesState):
         metadata = {} if degree is None else {"quadrature_degree": degree}
         dx = ufl.Measure("dx", domain=mesh, metadata=metadata)
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=self.tagged.facet_tags, metadata=metadata)
-        n = ufl.FacetNormal(mesh)
+        return f, eps, eps_f, dx, ds, ufl.FacetNormal(mesh)
+
+    def _build_forms(self) -> None:
+        mesh, p = self.mesh, self.params
+        (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
+        u_k, p_k = ufl.split(self.iterate)
+        self._rho = rho = fem.Constant(mesh, compat.ScalarType(p.density))
+        f, eps, eps_f, dx, ds, n = self._coefficients()
 
         walls = [(f"{b.name}_friction", b.friction, b.tag) for b in p.boundaries if b.has_friction]
         self.terms, rhs = picard_terms(

@@ -27,13 +27,12 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.domain.fixed import FixedDomain
 from dpcollapse.geometry.mesher import BED, LEFT, RIGHT, SURFACE, TaggedMesh
-from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
+from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
 from dpcollapse.models.stokes.regularized import picard_settings
 from dpcollapse.models.stokes.state import FlowParameters
 from dpcollapse.models.two_phase.flow import LightFluid, TwoPhaseFlow
 from dpcollapse.models.two_phase.fraction import owned_triangles, rectangle_fraction
-from dpcollapse.rheology.drucker_prager import DruckerPrager
-from dpcollapse.rheology.mu_i import MuI
+from dpcollapse.rheology.choice import law_from_material
 from dpcollapse.scenes.base import Boundary, BoundaryKind, bed_boundary, film_threshold
 
 
@@ -66,20 +65,11 @@ def box_boundaries(cfg) -> tuple[Boundary, ...]:
             Boundary(SURFACE, "top", BoundaryKind.FREE_SURFACE))
 
 
-def granular_law(cfg):
-    """The granular phase's law (as ``discretization.rheology``, which lives above models/)."""
-    m = cfg.material
-    if m.rheology == "mu_i":
-        return MuI(mu_s=m.mu_s, mu_2=m.mu_2, I0=m.inertial_number_I0, grain_diameter=m.grain_diameter,
-                   grain_density=m.grain_density, cohesion=m.cohesion, viscosity_cap=m.viscosity_cap)
-    return DruckerPrager(m.viscosity, m.mu_s, m.cohesion)
-
-
 def make_flow(tagged: TaggedMesh, cfg) -> TwoPhaseFlow:
     m, model = cfg.material, cfg.model
     params = FlowParameters(density=m.density, gravity=m.gravity,
                             bed_angle=math.radians(cfg.geometry.bed_angle),
-                            rheology=granular_law(cfg), boundaries=box_boundaries(cfg))
+                            rheology=law_from_material(cfg.material), boundaries=box_boundaries(cfg))
     light = LightFluid(model.air_density, model.air_viscosity, model.courant, model.compression)
     return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
 
@@ -246,13 +236,11 @@ class TwoPhaseFactory:
 
     def save_checkpoint(self, path, disc: TwoPhaseDiscretization, state: dict) -> None:
         """The mesh, uⁿ, pⁿ, cⁿ and the loop state (collective; rank 0 writes)."""
-        fields = dict(disc.flow.snapshot())
-        u, p = fields.pop("velocity"), fields.pop("pressure")
-        save_checkpoint(path, disc.tagged, u, p, state, fields)
+        save_model_checkpoint(path, disc.tagged, disc.flow.snapshot(), state)
 
     def load_checkpoint(self, path, comm) -> tuple[TwoPhaseDiscretization, dict]:
         """The box of the config with the checkpoint's fields."""
-        _, u, p, state, extra = load_checkpoint(path, comm)
+        _, fields, state = load_model_checkpoint(path, comm)
         disc = TwoPhaseDiscretization(self._box(comm), self.cfg)
-        disc.flow.transfer({"velocity": u, "pressure": p, **extra})
+        disc.flow.transfer(fields)
         return disc, state

@@ -15,7 +15,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import ufl
-from dolfinx import fem
 
 from dpcollapse import compat
 from dpcollapse.forms.picard import picard_terms
@@ -58,14 +57,7 @@ class TwoPhaseFlow(RegularizedFlow):
         (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
         u_k, p_k = ufl.split(self.iterate)
         self._rho = rho = mixture(clamped, p.density, light.density)
-        f = fem.Constant(mesh, np.array(p.body_force, dtype=compat.ScalarType))
-        self.epsilon = eps = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon))
-        eps_f = fem.Constant(mesh, compat.ScalarType(self.settings.epsilon_friction))
-        degree = self.settings.quadrature_degree
-        metadata = {} if degree is None else {"quadrature_degree": degree}
-        dx = ufl.Measure("dx", domain=mesh, metadata=metadata)
-        ds = ufl.Measure("ds", domain=mesh, subdomain_data=self.tagged.facet_tags, metadata=metadata)
-        n = ufl.FacetNormal(mesh)
+        f, eps, eps_f, dx, ds, n = self._coefficients()
         self.law = law = MixtureRheology(p.rheology, clamped, light.viscosity)
         walls = [(f"{b.name}_friction", b.friction, b.tag) for b in p.boundaries if b.has_friction]
         self.terms, self.rhs_terms = picard_terms(
