@@ -8,6 +8,7 @@ Newton, optionally
 - ε-continuation: Newton solves at ε_start, ε_start/10, … down to ε, each from the last.
 A step Newton fails (line search, iteration cap, LU) is redone from its start by the
 Picard fixed point (``newton_fallback``, the hybrid switch) before the loop halves Δt.
+Each step starts from its iterate with the Dirichlet conditions imposed (``_impose_dirichlet``).
 The stop is the Picard one applied to the Newton updates: the estimated error
 ‖Δu‖·max(1, ρ/(1 − ρ)) (ρ = ‖Δu_k‖/‖Δu_{k−1}‖, RMS over velocity dofs) ≤ rtol‖u‖ + atol.
 """
@@ -105,6 +106,17 @@ class NewtonFlow(RegularizedFlow):
             self.system.solve(self.solver, target=self.solution, b=b)
             self.iterate.x.array[:] = self.solution.x.array
 
+    def _impose_dirichlet(self, U: fem.Function) -> None:
+        """U = 0 on the dofs of the Dirichlet conditions (all zero: u = 0, or u_y = 0 / u_x = 0
+        on an axis-parallel side). The residual is zero on their rows and the Jacobian the
+        identity, so a Newton update leaves those dofs as the start has them: a start that
+        breaks a condition — after a landing the nose's new bed dofs keep the u_y they had as
+        free surface — would keep breaking it in the converged step (Picard's linear solve
+        sets them)."""
+        for bc in self.newton_system.bcs:
+            dofs, _ = bc.dof_indices()
+            U.x.array[dofs] = 0.0
+
     def _newton_converged(self, iteration: int) -> bool:
         """The Picard stop applied to the Newton update, and only after a full step: the
         update must be the undamped Newton step δ (λ ≥ 0.9), so that a line search that
@@ -140,6 +152,7 @@ class NewtonFlow(RegularizedFlow):
         s, ns = self.settings, self.newton
         self.dt.value = dt
         start = self.iterate.x.array.copy()
+        self._impose_dirichlet(self.iterate)
         iterations = 0
         self._error = math.nan
         try:
