@@ -104,8 +104,8 @@ def test_skew_convection_puts_no_kinetic_energy_in():
     """The convection's energy ∫ ρ (u·∇)u·u with v = u on the box with an open top: a DG0 ρ(c)
     jumping 1000:1 between cells and a u neither divergence-free nor tangential at the top
     (it enters for x < 0.3). The plain form ∫ ρ (u·∇)u·u dx = ½ Σ_facets [ρ] (u·n)|u|² + …
-    feeds energy in (measured −15.0 here against the outflow +2.74; issue 14's a = 1.42 blow-up); the skew
-    form leaves exactly the outflow through the top, ½ ∫ ρ [u·n]₊ |u|² ds ≥ 0."""
+    feeds energy in (measured −15.0 here, against the outflow +2.74: issue 14's a = 1.42
+    blow-up); the skew form leaves exactly the outflow ½ ∫_top ρ [u·n]₊ |u|² ds ≥ 0."""
     tagged = box_mesh(MPI.COMM_WORLD, 0.5, 0.2, 0.05)
     mesh = tagged.mesh
     u = fem.Function(compat.vector_space(mesh, 2))
