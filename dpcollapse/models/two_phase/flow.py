@@ -6,6 +6,8 @@
     ρ(cⁿ) (u^{n+1} − uⁿ)/Δt + ρ(cⁿ) (u^{n+1,k}·∇) u^{n+1} − ∇·(S(cⁿ, u^{n+1,k}, p^{n+1,k}) D(u^{n+1}))
         + ∇p^{n+1} = ρ(cⁿ) g,   ∇·u^{n+1} = 0;       then  c^{n+1} = A_Δt(cⁿ; u^{n+1})
 
+with the convection in skew-symmetric form and the open top's backflow stabilization
+(``forms.two_phase.skew_convection``: it creates no kinetic energy at the jumps of ρ(c)).
 The mixture coefficients use c clamped to [0, 1] (the advected c may leave it by its overshoot).
 """
 
