@@ -95,3 +95,19 @@ def outflow_rate(u, v, n, dS, ds, coefficient):
     rate_plus = _positive(ufl.dot(u('+'), n('+'))) + coefficient * abs(ufl.dot(u('+'), n('+')))
     rate_minus = _positive(ufl.dot(u('-'), n('-'))) + coefficient * abs(ufl.dot(u('-'), n('-')))
     return (rate_plus * v('+') + rate_minus * v('-')) * dS + _positive(ufl.dot(u, n)) * v * ds
+
+
+def skew_convection(rho, u_iter, u, v, n, dx, ds_open):
+    """The convection of the variable-density mixture in skew-symmetric form, linearized at uᵏ::
+
+        ½ ∫ ρ [((uᵏ·∇) u)·v − ((uᵏ·∇) v)·u] dx + ½ ∫_open ρ [uᵏ·n]₊ u·v ds
+
+    It equals ∫ ρ (uᵏ·∇)u·v + ½ ∫ ∇·(ρ uᵏ) u·v (+ the backflow-stabilized open side), whose
+    added half vanishes when ∂ρ/∂t + ∇·(ρu) = 0. With v = u the volume part is zero for any ρ
+    (jumps of the DG0 ρ(c) across facets, ∇·uᵏ ≠ 0 in a cell), so convection neither creates
+    nor destroys kinetic energy inside; on the open side only the outflow takes it away
+    (where the light fluid enters, the traction-free side would feed ½ ρ |u·n| |u|² in:
+    backflow stabilization, Moghadam et al. 2011)."""
+    un = ufl.dot(u_iter, n)
+    volume = 0.5 * rho * (ufl.inner(ufl.grad(u) * u_iter, v) - ufl.inner(ufl.grad(v) * u_iter, u)) * dx
+    return volume + 0.5 * rho * _positive(un) * ufl.inner(u, v) * ds_open

@@ -12,7 +12,10 @@ from dpcollapse import compat
 from dpcollapse.cli import main
 from dpcollapse.config import load_config
 from dpcollapse.errors import ConfigError
-from dpcollapse.forms.two_phase import MixtureRheology, mixture
+from dpcollapse.forms.momentum import convection
+from dpcollapse.forms.two_phase import MixtureRheology, mixture, skew_convection
+from dpcollapse.geometry.mesher import SURFACE
+from dpcollapse.models.two_phase.adapter import box_mesh
 from dpcollapse.models.two_phase.fraction import (VolumeFraction, owned_triangles,
                                                   rectangle_fraction)
 from dpcollapse.rheology.drucker_prager import DruckerPrager
@@ -95,6 +98,37 @@ def test_mixture_terms_by_hand():
     p = fem.Function(compat.scalar_space(mesh, 1))   # p = 0: no yield stress, S_g = 2η = 4
     S = fem.assemble_scalar(fem.form(law.secant_viscosity(u, p, 1e-3) * ufl.dx(domain=mesh)))
     assert S == pytest.approx((0.25 * 4.0 + 0.75 * 2e-2) * 0.06, rel=1e-12)
+
+
+def test_skew_convection_puts_no_kinetic_energy_in():
+    """The convection's energy ∫ ρ (u·∇)u·u with v = u on the box with an open top: a DG0 ρ(c)
+    jumping 1000:1 between cells and a u neither divergence-free nor tangential at the top
+    (it enters for x < 0.3). The plain form ∫ ρ (u·∇)u·u dx = ½ Σ_facets [ρ] (u·n)|u|² + …
+    feeds energy in (measured −15.0 here, against the outflow +2.74: issue 14's a = 1.42
+    blow-up); the skew form leaves exactly the outflow ½ ∫_top ρ [u·n]₊ |u|² ds ≥ 0."""
+    tagged = box_mesh(MPI.COMM_WORLD, 0.5, 0.2, 0.05)
+    mesh = tagged.mesh
+    u = fem.Function(compat.vector_space(mesh, 2))
+    u.interpolate(lambda x: np.vstack((np.sin(3 * x[0] + 7 * x[1]), x[0] - 0.3 + x[1] ** 2)))
+    S0 = compat.scalar_space(mesh, 0, "DG")
+    c = fem.Function(S0)
+    x = S0.tabulate_dof_coordinates()
+    c.x.array[:] = (np.sin(40 * x[:, 0]) * np.cos(30 * x[:, 1]) > 0).astype(float)
+    rho = mixture(c, 1550.0, 1.55)
+    n = ufl.FacetNormal(mesh)
+    dx = ufl.dx(domain=mesh)
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=tagged.facet_tags)
+
+    def total(form):
+        return mesh.comm.allreduce(fem.assemble_scalar(fem.form(form)), op=MPI.SUM)
+
+    skew = total(skew_convection(rho, u, u, u, n, dx, ds(SURFACE)))
+    un = ufl.dot(u, n)
+    outflow = total(0.5 * rho * 0.5 * (un + abs(un)) * ufl.inner(u, u) * ds(SURFACE))
+    plain = total(convection(rho, u, ufl.as_vector((0.0, 0.0)), u, u, dx))
+    assert outflow > 0
+    assert skew == pytest.approx(outflow, rel=1e-10, abs=1e-12)
+    assert plain < -0.1   # the plain form creates energy for this field
 
 
 @pytest.mark.parametrize("override, key", [

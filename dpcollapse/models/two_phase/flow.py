@@ -6,6 +6,8 @@
     ρ(cⁿ) (u^{n+1} − uⁿ)/Δt + ρ(cⁿ) (u^{n+1,k}·∇) u^{n+1} − ∇·(S(cⁿ, u^{n+1,k}, p^{n+1,k}) D(u^{n+1}))
         + ∇p^{n+1} = ρ(cⁿ) g,   ∇·u^{n+1} = 0;       then  c^{n+1} = A_Δt(cⁿ; u^{n+1})
 
+with the convection in skew-symmetric form and the open top's backflow stabilization
+(``forms.two_phase.skew_convection``: it creates no kinetic energy at the jumps of ρ(c)).
 The mixture coefficients use c clamped to [0, 1] (the advected c may leave it by its overshoot).
 """
 
@@ -18,7 +20,8 @@ import ufl
 
 from dpcollapse import compat
 from dpcollapse.forms.picard import picard_terms
-from dpcollapse.forms.two_phase import MixtureRheology, mixture
+from dpcollapse.forms.two_phase import MixtureRheology, mixture, skew_convection
+from dpcollapse.geometry.mesher import SURFACE
 from dpcollapse.models.stokes.regularized import PicardSettings, RegularizedFlow
 from dpcollapse.models.stokes.state import FlowParameters
 from dpcollapse.models.two_phase.fraction import VolumeFraction
@@ -65,6 +68,8 @@ class TwoPhaseFlow(RegularizedFlow):
             u_iter=u_k, p_iter=p_k, u_old=self.u_old, mesh_velocity=self.mesh_velocity,
             trial=(u, pr), test=(v, q), n=n, dx=dx, ds=ds,
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)])
+        # the convection in skew-symmetric form: no kinetic energy from the jumps of ρ(c)
+        self.terms["convection"] = skew_convection(rho, u_k, u, v, n, dx, ds(SURFACE))
         self.system = self._make_system(sum(self.terms.values()), sum(self.rhs_terms.values()))
 
     # ------------------------------------------------------------------ the step
