@@ -6,8 +6,8 @@
 A VARIANT is a name and its overrides, e.g. ``newton:numerics.nonlinear_solver=newton``
 (commas separate several overrides). plug: relative L² error of u_x against the 1D
 reference at t = 0.2 … 0.8 s (``validation.plug``); rigid: front and height at the end.
-Prints steps, iterations, LU factorizations, wall and CPU time per variant and the wall-time
-ratio of each variant to the first.
+Prints steps, iterations, LU factorizations, wall and CPU time, Newton's Picard fallbacks per
+variant and the wall-time, LU and CPU ratios of each variant to the first.
 """
 
 from __future__ import annotations
@@ -44,11 +44,13 @@ def run(case: str, overrides: list[str], end: float | None, out: Path) -> dict:
         summary = sim.run(observers=observers)
         status = summary["status"]
         factorizations = summary["flow_factorizations"]
+        fallbacks = summary.get("newton_fallbacks", 0)
     except (ConvergenceError, MeshError) as exc:
         status, factorizations = f"failed: {exc}", sim.factorizations + sim.disc.flow.solver.factorizations
+        fallbacks = sim.fallbacks + sim.disc.flow.solver.fallbacks
     row = {"status": status, "steps": sim.state.step, "iterations": int(np.sum(sim.iteration_counts)),
            "factorizations": factorizations, "wall": time.perf_counter() - t0,
-           "cpu": time.process_time() - c0}
+           "cpu": time.process_time() - c0, "fallbacks": fallbacks}
     if case == "plug":
         row["errors"] = dict(observers[0].errors)
     else:
@@ -74,11 +76,14 @@ def main() -> None:
         row = run(args.case, overrides, args.end, Path(f"/tmp/bench_newton/{name}"))
         rows.append((name, row))
         ratio = row["wall"] / rows[0][1]["wall"]
+        lu_ratio = row["factorizations"] / max(rows[0][1]["factorizations"], 1)
+        cpu_ratio = row["cpu"] / rows[0][1]["cpu"]
         extra = (" errors " + " ".join(f"t={t:g}:{e:.2e}" for t, e in row["errors"].items())
                  if "errors" in row else f" front {row['front']:.5f} m height {row['height']:.5f} m")
         print(f"{name:28s} {row['status'][:60]:20s} steps {row['steps']:5d} its {row['iterations']:6d} "
               f"LU {row['factorizations']:6d} wall {row['wall']:7.1f} s cpu {row['cpu']:7.1f} s "
-              f"ratio {ratio:5.2f}{extra}", flush=True)
+              f"fallbacks {row['fallbacks']:4d} ratio wall {ratio:5.2f} LU {lu_ratio:5.2f} "
+              f"cpu {cpu_ratio:5.2f}{extra}", flush=True)
         if args.history and row["history"]:
             print("   last Newton residual history (ε, iteration, ‖F‖):",
                   ", ".join(f"({e:g}, {k}, {r:.2e})" for e, k, r in row["history"][-12:]), flush=True)

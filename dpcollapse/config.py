@@ -430,6 +430,13 @@ class NumericsConfig(_Section):
     newton_epsilon_start: Number | None = _f(
         None, "1/s", "Newton: epsilon-continuation within a step, from this down to "
         "numerics.epsilon by factors of 10 (null: none)", gt=0)
+    newton_epsilon_friction_start: Number | None = _f(
+        None, "m/s", "Newton: continuation of the wall-friction regularization within a step, "
+        "from this down to numerics.epsilon_friction by factors of 10 (null: none)", gt=0)
+    newton_stop: Literal["update", "residual"] = _f(
+        "update", "", "Newton: stop test. update: the Picard test on the velocity updates "
+        "(>= 2 Jacobians per step); residual: predicted error ||du_k||*||F_k||/||F_k-1|| "
+        "<= rtol*||u|| + atol after a full step (can stop after one Jacobian)")
     reuse_factorization: bool = _f(
         False, "", "Factorize once per time step; later fixed-point iterates solve with GMRES "
         "preconditioned by that LU (experimental)")

@@ -11,7 +11,7 @@ from mpi4py import MPI
 
 from dpcollapse.config import ConfigError, load_config
 from dpcollapse.discretization import make_flow
-from dpcollapse.models.stokes.newton import NewtonFlow, continuation
+from dpcollapse.models.stokes.newton import NewtonFlow, continuation, predicted_error, regularization_stages
 from dpcollapse.scenes.registry import build_mesh
 from tests.helpers import ROOT
 
@@ -140,10 +140,66 @@ def test_continuation_stages():
     assert np.allclose(stages, [1e-2, 1e-3, 1e-4, 1e-5, 1e-6])
 
 
+def test_regularization_stages_lower_both_epsilons_to_their_targets():
+    assert regularization_stages(1e-6, None, 1e-6, None) == [(1e-6, 1e-6)]
+    stages = np.array(regularization_stages(1e-6, 1e-4, 1e-6, 1e-3))
+    assert np.allclose(stages, [[1e-4, 1e-3], [1e-5, 1e-4], [1e-6, 1e-5], [1e-6, 1e-6]])
+
+
+def test_friction_continuation_reaches_the_target_epsilon_friction():
+    """A tight step with ε_f-continuation from 1e-1 m/s is the step at the target ε_f = 1e-3
+    (agrees to 1e-6 of the largest speed with the step without continuation), and differs
+    from the step at the first stage's ε_f (the comparison can fail); the constant is back
+    at the target afterwards."""
+    tight = ["numerics.nonlinear_rtol=1e-9", "numerics.nonlinear_atol=0", "numerics.newton_fallback=false"]
+    plain = _flow(tight)
+    staged = _flow([*tight, "numerics.newton_epsilon_friction_start=1e-1"])
+    loose = _flow([*tight, "numerics.epsilon_friction=1e-1"])
+    for flow in (plain, staged, loose):
+        report = flow.solve_step(2e-3)
+        assert report.converged, report.message
+    assert float(staged.newton_epsilon_friction.value) == 1e-3
+    assert staged.solver.factorizations > plain.solver.factorizations   # the stages ran
+    u, u_s, u_l = plain.velocity_values(), staged.velocity_values(), loose.velocity_values()
+    scale = np.abs(u).max()
+    assert np.abs(u_s - u).max() <= 1e-6 * scale
+    assert np.abs(u_l - u).max() > 1e-4 * scale
+    for flow in (plain, staged, loose):
+        flow.destroy()
+
+
+def test_predicted_error_is_the_update_times_the_residual_reduction():
+    assert predicted_error(1e-2, [(0, 1.0)]) == 1e-2
+    assert predicted_error(1e-2, [(0, 2.0), (1, 2e-3)]) == pytest.approx(1e-5)
+    assert predicted_error(1e-2, [(0, 1.0), (1, 3.0)]) == 1e-2   # no growth credited
+
+
+def test_residual_stop_saves_jacobians_and_keeps_the_tolerance():
+    """At rtol = 1e-6 the residual-predicted stop needs fewer Jacobians than the update
+    stop on the first two steps, and its answer is within 10 rtol of a 1e-10 solve."""
+    rtol = 1e-6
+    base = ["numerics.nonlinear_atol=0", "numerics.newton_fallback=false"]
+    ref = _flow([*base, "numerics.nonlinear_rtol=1e-10"])
+    update = _flow([*base, f"numerics.nonlinear_rtol={rtol}"])
+    residual = _flow([*base, f"numerics.nonlinear_rtol={rtol}", "numerics.newton_stop=residual"])
+    for flow in (ref, update, residual):
+        for _ in range(2):
+            report = flow.solve_step(2e-3)
+            assert report.converged, report.message
+            flow.accept_step()
+    assert residual.solver.factorizations < update.solver.factorizations
+    u = ref.velocity_values()
+    assert np.abs(residual.velocity_values() - u).max() <= 10 * rtol * np.abs(u).max()
+    for flow in (ref, update, residual):
+        flow.destroy()
+
+
 @pytest.mark.parametrize("overrides", [["numerics.nonlinear_solver=secant"],
                                        ["numerics.nonlinear_solver=newton", "numerics.method=augmented_lagrangian"],
                                        ["numerics.nonlinear_solver=newton", "numerics.linear_solver=iterative"],
-                                       ["numerics.newton_line_search=trust"]])
+                                       ["numerics.newton_line_search=trust"],
+                                       ["numerics.newton_stop=norm"],
+                                       ["numerics.newton_epsilon_friction_start=0"]])
 def test_bad_newton_keys_are_config_errors(overrides):
     with pytest.raises(ConfigError, match="numerics"):
         load_config(ROOT / "configs/rigid.yaml", overrides)

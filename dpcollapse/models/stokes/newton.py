@@ -5,12 +5,18 @@ the Picard terms with the frozen coefficients put back to the unknowns), solved 
 SNES with the exact Jacobian from ``ufl.derivative`` and LU (``solvers.newton``). Before
 Newton, optionally
 - ``newton_picard_start`` Picard iterations (the secant-viscosity system, no Anderson),
-- ε-continuation: Newton solves at ε_start, ε_start/10, … down to ε, each from the last.
+- ε-continuation: Newton solves at ε_start, ε_start/10, … down to ε, each from the last;
+  likewise (``newton_epsilon_friction_start``) for the wall-friction ε_f of
+  |u_T|_ε = √(|u_T|² + ε_f²), both lowered together stage by stage.
 A step Newton fails (line search, iteration cap, LU) is redone from its start by the
 Picard fixed point (``newton_fallback``, the hybrid switch) before the loop halves Δt.
 Each step starts from its iterate with the Dirichlet conditions imposed (``_impose_dirichlet``).
 The stop is the Picard one applied to the Newton updates: the estimated error
-‖Δu‖·max(1, ρ/(1 − ρ)) (ρ = ‖Δu_k‖/‖Δu_{k−1}‖, RMS over velocity dofs) ≤ rtol‖u‖ + atol.
+‖Δu‖·max(1, ρ/(1 − ρ)) (ρ = ‖Δu_k‖/‖Δu_{k−1}‖, RMS over velocity dofs) ≤ rtol‖u‖ + atol
+(``newton_stop: update``, at least two Jacobians per step), or (``newton_stop: residual``) the
+error left after a full Newton step predicted from the residual reduction,
+‖Δu_k‖·‖F(U_k)‖/‖F(U_{k−1})‖ ≤ rtol‖u‖ + atol (near the solution the error contracts as the
+residual does), which can stop after one Jacobian.
 """
 
 from __future__ import annotations
@@ -38,12 +44,15 @@ class NewtonSettings:
     picard_start: int = 0               # Picard iterations before Newton
     epsilon_start: float | None = None  # ε-continuation from here down to ε (×0.1 per stage)
     fallback: bool = True               # a step Newton fails is redone by Picard (+ Anderson)
+    epsilon_friction_start: float | None = None  # ε_f-continuation (×0.1 per stage)
+    stop: str = "update"                # "update" (Picard test) or "residual" (predicted error)
 
 
 def newton_settings(cfg) -> NewtonSettings:
     n = cfg.numerics
     return NewtonSettings(picard_settings(cfg), n.newton_line_search, n.newton_max_iterations,
-                          n.newton_picard_start, n.newton_epsilon_start, n.newton_fallback)
+                          n.newton_picard_start, n.newton_epsilon_start, n.newton_fallback,
+                          n.newton_epsilon_friction_start, n.newton_stop)
 
 
 def continuation(epsilon: float, start: float | None) -> list[float]:
@@ -55,6 +64,26 @@ def continuation(epsilon: float, start: float | None) -> list[float]:
             stages.append(e)
             e /= 10.0
     return stages + [epsilon]
+
+
+def regularization_stages(epsilon: float, start: float | None, epsilon_friction: float,
+                          friction_start: float | None) -> list[tuple[float, float]]:
+    """(ε, ε_f) of the Newton stages: both continuations (``continuation``) run together, the
+    shorter one held at its target once reached; the last stage is (ε, ε_f)."""
+    bulk = continuation(epsilon, start)
+    wall = continuation(epsilon_friction, friction_start)
+    n = max(len(bulk), len(wall))
+    bulk += [epsilon] * (n - len(bulk))
+    wall += [epsilon_friction] * (n - len(wall))
+    return list(zip(bulk, wall))
+
+
+def predicted_error(change: float, history: list[tuple[int, float]]) -> float:
+    """Error left after the Newton update Δu_k, predicted from the residual reduction:
+    ‖Δu_k‖·‖F_k‖/‖F_{k−1}‖ (history: (iteration, ‖F‖) up to k; ‖Δu_k‖ without a ratio)."""
+    if len(history) < 2 or history[-2][1] <= 0:
+        return change
+    return change * min(1.0, history[-1][1] / history[-2][1])
 
 
 class NewtonFlow(RegularizedFlow):
@@ -78,6 +107,7 @@ class NewtonFlow(RegularizedFlow):
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=self.tagged.facet_tags, metadata=metadata)
         f = fem.Constant(mesh, np.array(p.body_force, dtype=compat.ScalarType))
         eps_f = fem.Constant(mesh, compat.ScalarType(s.epsilon_friction))
+        self.newton_epsilon_friction = eps_f
         walls = [(f"{b.name}_friction", b.friction, b.tag) for b in p.boundaries if b.has_friction]
         U = self.iterate
         self.residual_terms = residual_terms(
@@ -126,6 +156,8 @@ class NewtonFlow(RegularizedFlow):
         full = self.rms(self.snes.direction[self._owned_velocity])
         rho = contraction(change, self._previous_change) if iteration > 1 else 0.0
         error = max(distance_to_limit(change, rho), full)
+        if self.newton.stop == "residual":
+            error = predicted_error(change, self.snes.history)
         self._previous_velocity = new
         self._previous_change = change
         scale = self.rms(new)
@@ -159,8 +191,10 @@ class NewtonFlow(RegularizedFlow):
             if ns.picard_start:
                 self._picard_iterations(ns.picard_start)
                 iterations += ns.picard_start
-            for eps in continuation(s.epsilon, ns.epsilon_start):
+            for eps, eps_f in regularization_stages(s.epsilon, ns.epsilon_start,
+                                                    s.epsilon_friction, ns.epsilon_friction_start):
                 self.epsilon.value = eps
+                self.newton_epsilon_friction.value = eps_f
                 self._previous_velocity = self.velocity_values(self.iterate)
                 self._previous_change = 0.0
                 before = self.snes.factorizations
@@ -179,6 +213,7 @@ class NewtonFlow(RegularizedFlow):
             return StepReport(False, max(iterations, 1), math.nan, f"Newton: {exc}")
         finally:
             self.epsilon.value = s.epsilon
+            self.newton_epsilon_friction.value = s.epsilon_friction
         if not np.all(np.isfinite(self.iterate.x.array)):
             self.iterate.x.array[:] = start
             return StepReport(False, iterations, math.nan, "non-finite velocity")
