@@ -1,11 +1,15 @@
 """Plots of the column-collapse report (docs/benchmarks/2026-12-01-column.md).
 
     python scripts/column_plots.py front RUN_DIR OUT.png      # front, top height vs t sqrt(g/H0)
-    python scripts/column_plots.py law SWEEP_DIR OUT.png      # runout law from sweep.csv
+    python scripts/column_plots.py law SWEEP_DIR OUT.png [T]  # runout law from sweep.csv
+                                                              # (T: at t sqrt(g/H0) = T instead of the end)
     python scripts/column_plots.py fraction OUT.png RUN_DIR...  # two_phase: c at the last output
 
 ``law`` also prints the fitted power laws ΔL/L0 = c a^n on a ≤ 3 and a ≥ 3 and
-H_f/L0 = c a^n on a ≥ 0.7, per bed condition and mesh size, from the cases at rest.
+H_f/L0 = c a^n on a ≥ 0.7, per bed condition and mesh size, from the cases at rest or at
+their end time (drawn open). With T the fronts and the height are read from each run's
+diagnostics.csv at the first step with t sqrt(g/H0) ≥ T (g = 9.81 m/s², the configs' value),
+for a model whose deposits keep creeping after the collapse.
 """
 
 from __future__ import annotations
@@ -52,13 +56,28 @@ def fit(a: np.ndarray, y: np.ndarray) -> tuple[float, float] | None:
     return float(np.exp(logc)), float(n)
 
 
-def law_plot(sweep_dir: Path, out: Path) -> None:
+def at_scaled_time(sweep_dir: Path, row: dict, scaled_time: float) -> dict:
+    """``row`` with front, thick_front and max_height at the first step of its run with
+    t √(g/H0) ≥ ``scaled_time`` (the last step if the run ended before)."""
+    h0 = float(row[H0_KEY])
+    with (sweep_dir / row["run_dir"] / "diagnostics.csv").open() as f:
+        steps = list(csv.DictReader(f))
+    t_end = scaled_time / np.sqrt(9.81 / h0)
+    pick = next((r for r in steps if float(r["t"]) >= t_end), steps[-1])
+    return {**row, **{k: pick[k] for k in ("front", "thick_front", "max_height")}}
+
+
+def law_plot(sweep_dir: Path, out: Path, scaled_time: float | None = None) -> None:
     with (sweep_dir / "sweep.csv").open() as f:
         # runs that ended at time.end_time without meeting the rest rule are kept (their
         # status is printed and drawn open): the two-phase model's smeared surface cells creep
         rows = [r for r in csv.DictReader(f) if r.get("status") in ("at_rest", "end_time")]
+    if scaled_time is not None:
+        rows = [at_scaled_time(sweep_dir, r, scaled_time) for r in rows]
     for r in rows:
-        print(f"a = {float(r[H0_KEY]) / 0.1:5.2f}: {r['status']}")
+        print(f"a = {float(r[H0_KEY]) / 0.1:5.2f}: {r['status']:8s} ΔL/L0 mass "
+              f"{(float(r['front']) - 0.1) / 0.1:.2f}, thickness {(float(r['thick_front']) - 0.1) / 0.1:.2f}, "
+              f"H_f/L0 {float(r['max_height']) / 0.1:.3f}")
     l0 = 0.1
     groups: dict[tuple[str, str], list[dict]] = {}
     for r in rows:
@@ -96,6 +115,8 @@ def law_plot(sweep_dir: Path, out: Path) -> None:
                      label="1.9a^(2/3) – 2.3a^(2/3)")
     ax2.plot(aa[aa <= 0.7], aa[aa <= 0.7], "k--", label="H_f/L0 = a")
     ax2.plot(aa[aa >= 0.7], 0.74 * (aa[aa >= 0.7] / 0.74) ** (1 / 3), "k:", label="∝ a^(1/3) (through 0.74)")
+    if scaled_time is not None:
+        fig.suptitle(f"fronts and height at t √(g/H0) = {scaled_time:g}")
     ax1.set_xlabel("a = H0/L0"), ax1.set_ylabel("ΔL/L0"), ax1.legend(fontsize=6), ax1.grid(alpha=0.3)
     ax2.set_xlabel("a = H0/L0"), ax2.set_ylabel("H_f/L0"), ax2.legend(fontsize=6), ax2.grid(alpha=0.3)
     fig.tight_layout()
@@ -127,4 +148,7 @@ if __name__ == "__main__":
         fraction_plot(Path(sys.argv[2]), [Path(a) for a in sys.argv[3:]])
     else:
         src, dst = Path(sys.argv[2]), Path(sys.argv[3])
-        (front_plot if kind == "front" else law_plot)(src, dst)
+        if kind == "front":
+            front_plot(src, dst)
+        else:
+            law_plot(src, dst, float(sys.argv[4]) if len(sys.argv) > 4 else None)
