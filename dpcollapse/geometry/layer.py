@@ -29,11 +29,17 @@ def layer_mesh(comm: MPI.Comm, length: float, thickness: float, mesh_size: float
     """Structured triangles of size ≈ mesh_size on [0, length] × [0, thickness]."""
     nx = max(1, round(length / mesh_size))
     ny = max(1, round(thickness / mesh_size))
-    mesh = compat.create_rectangle(comm, (0.0, 0.0), (length, thickness), (nx, ny))
+    return structured_rectangle(comm, length, thickness, nx, ny)
+
+
+def structured_rectangle(comm: MPI.Comm, length: float, height: float, nx: int, ny: int) -> TaggedMesh:
+    """[0, length] × [0, height] in nx × ny squares cut into triangles, its sides tagged BED
+    (y = 0), SURFACE (y = height), LEFT (x = 0) and RIGHT (x = length), its cells DOMAIN."""
+    mesh = compat.create_rectangle(comm, (0.0, 0.0), (length, height), (nx, ny))
     fdim = mesh.topology.dim - 1
-    tol = 1e-12 * max(length, thickness)
+    tol = 1e-12 * max(length, height)
     markers = ((BED, lambda x: np.abs(x[1]) < tol),
-               (SURFACE, lambda x: np.abs(x[1] - thickness) < tol),
+               (SURFACE, lambda x: np.abs(x[1] - height) < tol),
                (LEFT, lambda x: np.abs(x[0]) < tol),
                (RIGHT, lambda x: np.abs(x[0] - length) < tol))
     indices, values = [], []

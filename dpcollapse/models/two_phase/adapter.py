@@ -21,11 +21,11 @@ import math
 import numpy as np
 import ufl
 from dolfinx import fem
-from dolfinx import mesh as dmesh
 from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.domain.fixed import FixedDomain
+from dpcollapse.geometry.layer import structured_rectangle
 from dpcollapse.geometry.mesher import BED, LEFT, RIGHT, SURFACE, TaggedMesh
 from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
 from dpcollapse.models.stokes.regularized import picard_settings
@@ -40,21 +40,7 @@ def box_mesh(comm, length: float, height: float, mesh_size: float) -> TaggedMesh
     """[0, length] × [0, height] in triangles of about ``mesh_size``, sides tagged BED,
     LEFT (the symmetry wall), RIGHT and SURFACE (the open top)."""
     nx, ny = max(2, round(length / mesh_size)), max(2, round(height / mesh_size))
-    mesh = compat.create_rectangle(comm, (0.0, 0.0), (length, height), (nx, ny))
-    fdim = mesh.topology.dim - 1
-    tol = 1e-9 * max(length, height)
-    markers = ((BED, lambda x: np.abs(x[1]) < tol),
-               (LEFT, lambda x: np.abs(x[0]) < tol),
-               (RIGHT, lambda x: np.abs(x[0] - length) < tol),
-               (SURFACE, lambda x: np.abs(x[1] - height) < tol))
-    indices, values = [], []
-    for tag, where in markers:
-        facets = dmesh.locate_entities_boundary(mesh, fdim, where)
-        indices.append(facets)
-        values.append(np.full(len(facets), tag, dtype=np.int32))
-    indices, first = np.unique(np.concatenate(indices), return_index=True)
-    mesh.topology.create_connectivity(fdim, mesh.topology.dim)
-    return TaggedMesh(mesh, compat.meshtags(mesh, fdim, indices, np.concatenate(values)[first]))
+    return structured_rectangle(comm, length, height, nx, ny)
 
 
 def box_boundaries(cfg) -> tuple[Boundary, ...]:
