@@ -23,6 +23,7 @@ from dpcollapse.config import Config
 from dpcollapse.domain.base import make_domain
 from dpcollapse.geometry.mesher import DOMAIN, TaggedMesh
 from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
+from dpcollapse.io.law_fields import LawFields
 from dpcollapse.rheology.base import Rheology
 from dpcollapse.rheology.choice import law_from_material
 from dpcollapse.scenes.base import film_threshold, thickness_front
@@ -109,8 +110,7 @@ class Discretization:
         self.law = law = self.flow.params.rheology
         # fields only some laws have (μ(I): the inertial number), and the well-posed window
         eps = cfg.numerics.epsilon
-        self.out_extra = {name: (fem.Function(S0, name=name), compat.expression(expr, S0))
-                          for name, expr in law.diagnostic_fields(u, p, eps).items()}
+        self.out_extra = LawFields(law, u, p, eps, S0)
         self.window = law.well_posed_window()
         if self.window is not None:
             self._speed = fem.Function(S0)
@@ -235,9 +235,7 @@ class Discretization:
             cells = compat.cell_dofs(function.function_space)[:, 0]
             function.x.array[cells] = self.flow.cell_field(function.name)
             fields.append(function)
-        for function, expr in self.out_extra.values():
-            function.interpolate(expr)
-            fields.append(function)
+        fields.extend(self.out_extra.interpolated())
         return fields
 
     def destroy(self) -> None:

@@ -28,6 +28,7 @@ from dpcollapse.domain.fixed import FixedDomain
 from dpcollapse.geometry.layer import structured_rectangle
 from dpcollapse.geometry.mesher import BED, LEFT, RIGHT, SURFACE, TaggedMesh
 from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
+from dpcollapse.io.law_fields import LawFields
 from dpcollapse.models.stokes.regularized import picard_settings
 from dpcollapse.models.stokes.state import FlowParameters
 from dpcollapse.models.two_phase.flow import LightFluid, TwoPhaseFlow
@@ -108,8 +109,7 @@ class TwoPhaseDiscretization:
         self._speed = fem.Function(S0)
         self._speed_expr = compat.expression(ufl.sqrt(ufl.inner(flow.u_old, flow.u_old)), S0)
         eps = cfg.numerics.epsilon
-        self.out_extra = {name: (fem.Function(S0, name=name), compat.expression(expr, S0))
-                          for name, expr in flow.params.rheology.diagnostic_fields(u, p, eps).items()}
+        self.out_extra = LawFields(flow.params.rheology, u, p, eps, S0)
 
     def set_column(self, length: float, height: float) -> None:
         """c = |K ∩ [0, L0] × [0, H0]| / |K| in each cell (exact)."""
@@ -181,9 +181,7 @@ class TwoPhaseDiscretization:
         self.out_velocity.interpolate(sol.sub(0))
         self.out_pressure.interpolate(sol.sub(1))
         fields = [self.fraction.c, self.out_velocity, self.out_pressure]
-        for function, expr in self.out_extra.values():
-            function.interpolate(expr)
-            fields.append(function)
+        fields.extend(self.out_extra.interpolated())
         return fields
 
     def destroy(self) -> None:
