@@ -565,6 +565,9 @@ class TwoPhaseModel(_Section):
         "cell (0: plain upwind)", ge=0, le=2)
     fraction_threshold: Number = _f(
         0.5, "", "A cell with c above this counts as granular (mass front, max speed)", gt=0, lt=1)
+    grad_div: Number = _f(
+        10.0, "", "gamma of the grad-div term gamma S (div u)(div v) with S the local secant "
+        "viscosity of the mixture (0: off; docs/benchmarks/2026-12-02-two-phase-rest.md)", ge=0, le=100)
 
 
 def _name_of(value: Any) -> str:

@@ -97,6 +97,14 @@ def outflow_rate(u, v, n, dS, ds, coefficient):
     return (rate_plus * v('+') + rate_minus * v('-')) * dS + _positive(ufl.dot(u, n)) * v * ds
 
 
+def grad_div(coefficient, secant_viscosity, u, v, dx):
+    """γ ∫ S (∇·u)(∇·v) dx: the grad-div term (Olshanskii & Reusken 2004) with the local secant
+    viscosity S of the mixture as its scale. It vanishes for an exactly divergence-free u; on
+    Taylor–Hood P2/P1 it pulls the cellwise divergence ∫_K ∇·u, which the volume fraction's
+    fluxes see, towards zero, in the stiff granular phase as much as in the light fluid."""
+    return coefficient * secant_viscosity * ufl.div(u) * ufl.div(v) * dx
+
+
 def skew_convection(rho, u_iter, u, v, n, dx, ds_open):
     """The convection of the variable-density mixture in skew-symmetric form, linearized at uᵏ::
 

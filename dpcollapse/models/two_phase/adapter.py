@@ -57,7 +57,8 @@ def make_flow(tagged: TaggedMesh, cfg) -> TwoPhaseFlow:
     params = FlowParameters(density=m.density, gravity=m.gravity,
                             bed_angle=math.radians(cfg.geometry.bed_angle),
                             rheology=law_from_material(cfg.material), boundaries=box_boundaries(cfg))
-    light = LightFluid(model.air_density, model.air_viscosity, model.courant, model.compression)
+    light = LightFluid(model.air_density, model.air_viscosity, model.courant, model.compression,
+                       model.grad_div)
     return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
 
 
@@ -66,9 +67,9 @@ class TwoPhaseDiscretization:
 
     #: h(x = 0) [m]; min and max of c; advection sub-steps of the last step
     #: and the kinetic energy ∫ c ρ |u|²/2 over every cell (the haze of c the light fluid
-    #: carries included) [J/m]
+    #: carries included) [J/m]; Σ_K min(c_K, 1) |∫_K ∇·u| [m²/s]
     extra_measures = ("wall_height", "fraction_min", "fraction_max", "substeps",
-                      "mixture_kinetic_energy")
+                      "mixture_kinetic_energy", "divergence_rate")
 
     def __init__(self, tagged: TaggedMesh, cfg):
         self.cfg, self.tagged = cfg, tagged
@@ -171,6 +172,7 @@ class TwoPhaseDiscretization:
             "wall_height": float(h[0]),
             "fraction_min": lo, "fraction_max": hi,
             "substeps": self.fraction.substeps,
+            "divergence_rate": self.fraction.divergence_rate(),
             "mixture_kinetic_energy": self.comm.allreduce(
                 fem.assemble_scalar(self._kinetic_mixture), op=MPI.SUM),
         }

@@ -4,9 +4,10 @@
 (``fraction.VolumeFraction``, sub-cycled).
 
     ρ(cⁿ) (u^{n+1} − uⁿ)/Δt + ρ(cⁿ) (u^{n+1,k}·∇) u^{n+1} − ∇·(S(cⁿ, u^{n+1,k}, p^{n+1,k}) D(u^{n+1}))
-        + ∇p^{n+1} = ρ(cⁿ) g,   ∇·u^{n+1} = 0;       then  c^{n+1} = A_Δt(cⁿ; u^{n+1})
+        − ∇(γ S ∇·u^{n+1}) + ∇p^{n+1} = ρ(cⁿ) g,   ∇·u^{n+1} = 0;       then  c^{n+1} = A_Δt(cⁿ; u^{n+1})
 
-with the convection in skew-symmetric form and the open top's backflow stabilization
+with the grad-div term γ S ∇·u (``forms.two_phase.grad_div``, S the secant viscosity at
+the iterate), the convection in skew-symmetric form and the open top's backflow stabilization
 (``forms.two_phase.skew_convection``: it creates no kinetic energy at the jumps of ρ(c)).
 The mixture coefficients use c clamped to [0, 1] (the advected c may leave it by its overshoot).
 """
@@ -20,7 +21,7 @@ import ufl
 
 from dpcollapse import compat
 from dpcollapse.forms.picard import picard_terms
-from dpcollapse.forms.two_phase import MixtureRheology, mixture, skew_convection
+from dpcollapse.forms.two_phase import MixtureRheology, grad_div, mixture, skew_convection
 from dpcollapse.geometry.mesher import SURFACE
 from dpcollapse.models.stokes.regularized import PicardSettings, RegularizedFlow
 from dpcollapse.models.stokes.state import FlowParameters
@@ -36,6 +37,7 @@ class LightFluid:
     viscosity: float      # η_a [Pa s]
     courant: float        # of the advection sub-steps
     compression: float    # C of the interface compression
+    grad_div: float = 0.0  # γ of the grad-div term γ S (∇·u)(∇·v)
 
 
 class TwoPhaseFlow(RegularizedFlow):
@@ -70,6 +72,10 @@ class TwoPhaseFlow(RegularizedFlow):
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)])
         # the convection in skew-symmetric form: no kinetic energy from the jumps of ρ(c)
         self.terms["convection"] = skew_convection(rho, u_k, u, v, n, dx, ds(SURFACE))
+        if light.grad_div > 0:
+            # the cellwise divergence the fluxes of c see (c > 1 in converging cells, creep)
+            self.terms["grad_div"] = grad_div(light.grad_div, law.secant_viscosity(u_k, p_k, eps),
+                                              u, v, dx)
         self.system = self._make_system(sum(self.terms.values()), sum(self.rhs_terms.values()))
 
     # ------------------------------------------------------------------ the step

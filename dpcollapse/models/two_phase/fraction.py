@@ -107,6 +107,7 @@ class VolumeFraction:
             flux = flux + compression_flux(self.work, u, v, n, dS, C)
         self._flux = fem.form(flux)
         self._rate = fem.form(outflow_rate(u, v, n, dS, ds, C))
+        self._divergence = fem.form(ufl.div(u) * v * ufl.dx(domain=mesh))
         self._b = compat.create_vector(self._flux)
 
     def set_values(self, owned_values: np.ndarray) -> None:
@@ -127,6 +128,14 @@ class VolumeFraction:
         local = self._assemble(self._rate) / self.volume
         top = float(local.max()) if len(local) else 0.0
         return self.comm.allreduce(top, op=MPI.MAX)
+
+    def divergence_rate(self) -> float:
+        """Σ_K min(c_K, 1) |∫_K ∇·u dx| [m²/s]: the rate at which the cellwise divergence of
+        the velocity makes or unmakes granular volume in the upwind fluxes (zero for an
+        exactly divergence-free u; the light fluid's cells do not count)."""
+        weight = np.clip(self.c.x.array[:self._n], 0.0, 1.0)
+        local = float((weight * np.abs(self._assemble(self._divergence))).sum())
+        return self.comm.allreduce(local, op=MPI.SUM)
 
     def advance(self, dt: float) -> int:
         """c^{n+1} from cⁿ with the current u (kept as ``pending``); the number of sub-steps."""
