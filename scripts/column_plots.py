@@ -4,6 +4,8 @@
     python scripts/column_plots.py law SWEEP_DIR OUT.png [T]  # runout law from sweep.csv
                                                               # (T: at t sqrt(g/H0) = T instead of the end)
     python scripts/column_plots.py fraction OUT.png RUN_DIR...  # two_phase: c at the last output
+    python scripts/column_plots.py laws OUT.png T NAME=SWEEP_DIR...  # several sweeps in one plot,
+                                                              # mass fronts at t sqrt(g/H0) = T
 
 ``law`` also prints the fitted power laws ΔL/L0 = c a^n on a ≤ 3 and a ≥ 3 and
 H_f/L0 = c a^n on a ≥ 0.7, per bed condition and mesh size, from the cases at rest or at
@@ -123,6 +125,62 @@ def law_plot(sweep_dir: Path, out: Path, scaled_time: float | None = None) -> No
     fig.savefig(out, dpi=120)
 
 
+def laws_plot(out: Path, scaled_time: float, sweeps: list[tuple[str, Path]]) -> None:
+    """The mass front ΔL/L0 and the top height H_f/L0 at t √(g/H0) = ``scaled_time`` of several
+    sweeps (e.g. two mesh levels, two bed conditions), one line each; prints a markdown table
+    row per run (with the run's end: at rest at t √(g/H0) = …, or its end time) and the fits."""
+    l0 = 0.1
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
+    aa = np.logspace(np.log10(0.4), np.log10(12), 50)
+    print("| sweep | a | ΔX [m] | ΔL/L0 | H_f/L0 | end | ΔL/L0 at the end | H_f/L0 at the end "
+          "| area drift | wall [s] |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for (name, sweep_dir), marker in zip(sweeps, "osD^v"):
+        with (sweep_dir / "sweep.csv").open() as f:
+            rows = [r for r in csv.DictReader(f) if r.get("status") in ("at_rest", "end_time")]
+        picked = [at_scaled_time(sweep_dir, r, scaled_time) for r in rows]
+        a = np.round([float(r[H0_KEY]) / l0 for r in rows], 9)
+        order = np.argsort(a)
+        a = a[order]
+        run = np.array([(float(picked[i]["front"]) - l0) / l0 for i in order])
+        hf = np.array([float(picked[i]["max_height"]) / l0 for i in order])
+        rested = np.array([rows[i]["status"] == "at_rest" for i in order])
+        for k, i in enumerate(order):
+            r = rows[i]
+            run_json = json.loads((sweep_dir / r["run_dir"] / "run.json").read_text())
+            summ = run_json["summary"]
+            t_scale = np.sqrt(9.81 / float(r[H0_KEY]))
+            end = (f"at rest, T = {summ['t'] * t_scale:.1f}" if r["status"] == "at_rest"
+                   else f"end time, T = {summ['t'] * t_scale:.1f}")
+            print(f"| {name} | {a[k]:g} | {run_json['config']['geometry']['mesh_size']} | {run[k]:.2f} "
+                  f"| {hf[k]:.3f} | {end} | {(summ['front'] - l0) / l0:.2f} | {summ['max_height'] / l0:.3f} "
+                  f"| {summ['area_drift']:.1e} | {float(r.get('wall_time') or 'nan'):.0f} |")
+        line = ax1.loglog(a, run, marker + "-", label=name)[0]
+        ax2.loglog(a, hf, marker + "-", color=line.get_color(), label=name)
+        if (~rested).any():
+            ax1.loglog(a[~rested], run[~rested], marker, mfc="white", mec=line.get_color())
+            ax2.loglog(a[~rested], hf[~rested], marker, mfc="white", mec=line.get_color())
+        for label, y, cut, above in (("ΔL/L0", run, 3.0, False), ("ΔL/L0", run, 3.0, True),
+                                     ("H_f/L0", hf, 0.7, True)):
+            sel = a >= cut - 1e-9 if above else a <= cut + 1e-9
+            p = fit(a[sel], y[sel])
+            side = f"a ≥ {cut}" if above else f"a ≤ {cut}"
+            print(f"{name}: {label} {side}: "
+                  + (f"{p[0]:.2f} a^{p[1]:.2f} ({sel.sum()} points)" if p else f"{sel.sum()} point(s), no fit"))
+    ax1.fill_between(aa, 1.2 * aa, 1.8 * aa, where=aa <= 3, color="0.85", label="1.2a – 1.8a (a ≤ 3)")
+    ax1.fill_between(aa, 1.9 * aa ** (2 / 3), 2.3 * aa ** (2 / 3), where=aa >= 2.8, color="0.7",
+                     label="1.9a^(2/3) – 2.3a^(2/3)")
+    ax2.plot(aa[aa <= 0.7], aa[aa <= 0.7], "k--", label="H_f/L0 = a")
+    ax2.plot(aa[aa >= 0.7], 0.74 * (aa[aa >= 0.7] / 0.74) ** (1 / 3), "k:", label="∝ a^(1/3) (through 0.74)")
+    fig.suptitle(f"mass front and top height at t √(g/H0) = {scaled_time:g} "
+                 "(open: the run did not meet the rest rule by its end)")
+    ax1.set_xlabel("a = H0/L0"), ax1.set_ylabel("ΔL/L0 (mass front)"), ax1.legend(fontsize=7)
+    ax2.set_xlabel("a = H0/L0"), ax2.set_ylabel("H_f/L0"), ax2.legend(fontsize=7)
+    ax1.grid(alpha=0.3), ax2.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+
+
 def fraction_plot(out: Path, run_dirs: list[Path]) -> None:
     """The granular volume fraction c (model two_phase) of each run at its last output."""
     from dpcollapse.plot import read_cell_field, read_series
@@ -146,6 +204,9 @@ if __name__ == "__main__":
     kind = sys.argv[1]
     if kind == "fraction":
         fraction_plot(Path(sys.argv[2]), [Path(a) for a in sys.argv[3:]])
+    elif kind == "laws":
+        laws_plot(Path(sys.argv[2]), float(sys.argv[3]),
+                  [(arg.split("=", 1)[0], Path(arg.split("=", 1)[1])) for arg in sys.argv[4:]])
     else:
         src, dst = Path(sys.argv[2]), Path(sys.argv[3])
         if kind == "front":
