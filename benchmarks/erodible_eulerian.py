@@ -25,8 +25,11 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parent.parent
 PROFILE_EVERY = 0.05
-#: the moving-mesh (ALE) deposit at 1 cm with seed 000's tension (front, top) [m]
+#: the moving-mesh (ALE) deposits at 1 cm, (front, top) [m]: on the layer with seed 000's
+#: tension (docs/benchmarks/2026-12-02-erodible-tension-mesh.md) and on the rigid bed
+#: (configs/rigid.yaml, docs/benchmarks/2026-12-01-dolfinx-versions.md)
 ALE_DEPOSIT = (0.6250, 0.2148)
+RIGID_DEPOSIT = (0.6664, 0.2100)
 
 
 def _columns(disc, values):
@@ -114,13 +117,19 @@ def plot(reports: list[str], png: str) -> None:
     import matplotlib.pyplot as plt
 
     sys.path.insert(0, str(REPO))
-    fig, (ax, axl, axt) = plt.subplots(3, 1, figsize=(11, 10), height_ratios=[2.2, 1, 1.3])
+    fig = plt.figure(figsize=(11, 10))
+    grid = fig.add_gridspec(3, 2, height_ratios=[2.2, 1, 1.3])
+    ax, axl = fig.add_subplot(grid[0, :]), fig.add_subplot(grid[1, :])
+    axt, axm = fig.add_subplot(grid[2, 0]), fig.add_subplot(grid[2, 1])
     he, h0, l0 = 0.005, 0.25, 0.297
     top = l0 - h0 / math.tan(math.radians(70.0))
     ax.plot([0, l0, top, 0], [he, he, he + h0, he + h0], "k:", lw=0.9, label="initial mass")
-    ax.plot(*ALE_DEPOSIT, "ks", ms=6, label="moving mesh, 1 cm, at rest: front, top")
-    ax.plot([0, ALE_DEPOSIT[0]], [ALE_DEPOSIT[1], ALE_DEPOSIT[1]], "k--", lw=0.6)
-    ax.plot([ALE_DEPOSIT[0]] * 2, [0, 0.03], "k--", lw=0.6)
+    for (front, height), mark, what in ((ALE_DEPOSIT, "s", "erodible, tension"),
+                                        (RIGID_DEPOSIT, "^", "rigid bed")):
+        ax.plot(front, height, "k" + mark, ms=6, label=f"moving mesh 1 cm at rest, {what}: "
+                f"front {front} m (marker x), top {height} m (marker y)")
+        ax.plot([0, front], [height, height], "k--", lw=0.5)
+        ax.plot([front] * 2, [0, 0.03], "k--", lw=0.5)
     colors = plt.get_cmap("tab10")
     for i, path in enumerate(reports):
         rep = json.loads(Path(path).read_text())
@@ -135,22 +144,28 @@ def plot(reports: list[str], png: str) -> None:
                       colors=[colors(i)], linewidths=0.7, linestyles="--")
         axl.plot(x, d["hl"][0] * 1e3, color=colors(i), lw=0.7, ls=":", label=f"{name}, t = 0")
         axl.plot(x, d["hl"][-1] * 1e3, color=colors(i), lw=1.2, label=f"{name}, end")
-        axt.plot(d["t"], d["front"], color=colors(i), label=f"{name}: mass front [m]")
-        axt.plot(d["t"], d["layer_moving"], color=colors(i), ls="--",
-                 label=f"{name}: layer set in motion (fraction)")
+        axt.plot(d["t"], d["front"], color=colors(i), label=f"{name}: mass front")
+        axt.plot(d["t"], d["thick_front"], color=colors(i), ls=":", label=f"{name}: thickness front")
+        axm.plot(d["t"], d["layer_moving"], color=colors(i), label=f"{name}: set in motion")
+        axm.plot(d["t"], d["layer_outside"], color=colors(i), ls="--",
+                 label=f"{name}: outside its initial cells")
     ax.set_xlim(0, 1.0)
     ax.set_ylim(0, 0.27)
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_title("final deposit: h(x) solid, c = 0.5 dashed", fontsize=9)
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=7, loc="center right")
     axl.set_xlim(0, 1.0)
     axl.set_xlabel("x [m]")
     axl.set_ylabel("h_L = ∫ c_L dy [mm]")
     axl.legend(fontsize=7, loc="upper right")
     axt.set_xlabel("t [s]")
+    axt.set_ylabel("front [m]")
     axt.legend(fontsize=7)
+    axm.set_xlabel("t [s]")
+    axm.set_ylabel("fraction of the layer")
+    axm.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(png, dpi=110)
 
