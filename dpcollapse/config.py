@@ -680,16 +680,22 @@ class Config(_Section):
     def _two_phase(self) -> None:
         """The fixed box must contain the column; the rest is refused (one line each)."""
         g, m = self.geometry, self.model
-        if g.shape != "column":
+        if g.shape not in ("column", "erodible"):
             raise ConfigError(f"geometry.shape = {g.shape!r}: not available with model.name = "
-                              "two_phase; must be 'column'")
+                              "two_phase; must be one of 'column', 'erodible'")
         if self.output.format != "xdmf":
             raise ConfigError(f"output.format = {self.output.format!r}: must be 'xdmf' with "
                               "model.name = two_phase")
-        if m.box_length < g.base_length or m.box_height < g.height:
-            raise ConfigError(f"model.box_length = {_fmt(m.box_length)}, model.box_height = "
-                              f"{_fmt(m.box_height)}: the box must contain the column "
-                              f"[0, {g.base_length:g}] x [0, {g.height:g}] m")
+        if g.shape == "erodible":
+            length, height, what = g.layer_length, g.layer_thickness + g.height, "layer and mass"
+        else:
+            length, height, what = g.base_length, g.height, "column"
+        if m.box_length < length:
+            raise ConfigError(f"model.box_length = {_fmt(m.box_length)}: must be >= {length:g} m "
+                              f"(the box must contain the {what})")
+        if m.box_height < height:
+            raise ConfigError(f"model.box_height = {_fmt(m.box_height)}: must be >= {height:g} m "
+                              f"(the box must contain the {what})")
         if m.box_length < 2 * g.mesh_size or m.box_height < 2 * g.mesh_size:
             raise ConfigError(f"geometry.mesh_size = {_fmt(g.mesh_size)}: must be at most half "
                               "of model.box_length and model.box_height with model.name = two_phase")

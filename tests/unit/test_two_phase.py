@@ -16,8 +16,8 @@ from dpcollapse.forms.momentum import convection
 from dpcollapse.forms.two_phase import MixtureRheology, mixture, skew_convection
 from dpcollapse.geometry.mesher import SURFACE
 from dpcollapse.models.two_phase.adapter import box_mesh
-from dpcollapse.models.two_phase.fraction import (VolumeFraction, owned_triangles,
-                                                  rectangle_fraction)
+from dpcollapse.models.two_phase.fraction import VolumeFraction, owned_triangles
+from dpcollapse.models.two_phase.overlap import rectangle_fraction
 from dpcollapse.rheology.drucker_prager import DruckerPrager
 from tests.helpers import ROOT
 
@@ -133,7 +133,7 @@ def test_skew_convection_puts_no_kinetic_energy_in():
 
 @pytest.mark.parametrize("override, key", [
     ("model.box_length=0.05", "model.box_length"),
-    ("model.box_height=0.04", "model.box_length"),
+    ("model.box_height=0.04", "model.box_height"),
     ("model.air_density=0", "model.air_density"),
     ("model.air_viscosity=-1", "model.air_viscosity"),
     ("model.courant=0.8", "model.courant"),
@@ -146,6 +146,6 @@ def test_bad_keys_are_one_line(override, key, capsys):
     assert key in capsys.readouterr().err
 
 
-def test_only_the_column_scene():
+def test_only_the_column_and_erodible_scenes():
     with pytest.raises(ConfigError, match="geometry.shape"):
         load_config(None, ["model.name=two_phase"])

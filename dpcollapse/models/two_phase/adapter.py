@@ -6,12 +6,19 @@
 * ``TwoPhaseDiscretization``: the flow (``flow.TwoPhaseFlow``), its measures from c (mass
   front, thickness front and heights from h(x) = ∫ c dy, kinetic energy and area of the
   granular phase), its outputs (c, u, p and the law's fields such as the inertial number);
-* ``TwoPhaseFactory``: ``model.name = two_phase``: a fixed domain, the column as the initial
-  c (exact cell overlap), checkpoints of u, p, c.
+* ``TwoPhaseFactory``: ``model.name = two_phase``: a fixed domain, the column, or the
+  trapezoid on its erodible layer (``layer``: c and the layer's own fraction c_L), as the
+  initial c (exact cell overlap), checkpoints of u, p, c (and c_L).
+
+On the erodible layer the fronts leave the layer out, as the moving-mesh scene does: the mass
+front is the furthest x of the granular cells whose centroid lies above 2 h_e, the thickness
+front the right edge of the furthest column with h ≥ max(film threshold, 2 h_e).
 
 The sides: the bed of ``boundary.bed_condition`` (no slip, or Coulomb μ_b on p: zero in the
-light fluid), u_x = 0 on the symmetry wall x = 0 and on the right side (slip), and the top
-open (σ·n = 0: the light fluid leaves and enters freely, and the pressure needs no gauge).
+light fluid); at x = 0 the column's symmetry plane (u_x = 0) or the erodible scene's wall
+(u_x = 0 and Coulomb μ_l = ``boundary.wall_friction_angle``, as on the moving mesh); u_x = 0 on
+the right side (slip); the top open (σ·n = 0: the light fluid leaves and enters freely, and
+the pressure needs no gauge).
 """
 
 from __future__ import annotations
@@ -32,7 +39,10 @@ from dpcollapse.io.law_fields import LawFields
 from dpcollapse.models.stokes.regularized import picard_settings
 from dpcollapse.models.stokes.state import FlowParameters
 from dpcollapse.models.two_phase.flow import LightFluid, TwoPhaseFlow
-from dpcollapse.models.two_phase.fraction import owned_triangles, rectangle_fraction
+from dpcollapse.models.two_phase.fraction import owned_triangles
+from dpcollapse.models.two_phase.layer import MEASURES as LAYER_MEASURES
+from dpcollapse.models.two_phase.layer import LayerTracer
+from dpcollapse.models.two_phase.overlap import rectangle_fraction
 from dpcollapse.rheology.choice import law_from_material
 from dpcollapse.scenes.base import Boundary, BoundaryKind, bed_boundary, film_threshold
 
@@ -45,9 +55,14 @@ def box_mesh(comm, length: float, height: float, mesh_size: float) -> TaggedMesh
 
 
 def box_boundaries(cfg) -> tuple[Boundary, ...]:
+    """The bed, the left side x = 0 (the column's frictionless symmetry plane; the erodible
+    scene's wall, Coulomb μ_l on p as on the moving mesh), the slip right side, the open top."""
     b = cfg.boundary
-    return (bed_boundary(BED, b.bed_condition, b.mu_bed),
-            Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0)),
+    if cfg.geometry.shape == "erodible" and b.mu_wall > 0:
+        left = Boundary(LEFT, "wall", BoundaryKind.COULOMB, (-1.0, 0.0), friction=b.mu_wall)
+    else:
+        left = Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0))
+    return (bed_boundary(BED, b.bed_condition, b.mu_bed), left,
             Boundary(RIGHT, "right", BoundaryKind.SLIP, (1.0, 0.0)),
             Boundary(SURFACE, "top", BoundaryKind.FREE_SURFACE))
 
@@ -81,6 +96,12 @@ class TwoPhaseDiscretization:
         grains = cfg.material.grain_diameter if cfg.material.rheology == "mu_i" else 0.0
         self.film_threshold = film_threshold(grains, g.mesh_size)
         self.threshold = model.fraction_threshold
+        # the erodible scene: c_L, and the fronts above the layer (2 h_e, as the ALE scene)
+        self.layer = LayerTracer(flow, g) if g.shape == "erodible" else None
+        floor = 2.0 * g.layer_thickness if self.layer else 0.0
+        self.thick_floor = max(self.film_threshold, floor)
+        if self.layer:
+            self.extra_measures = type(self).extra_measures + LAYER_MEASURES
         # columns of cells for h(x) = ∫ c dy: bins of the structured mesh along x
         self.nx = max(2, round(model.box_length / g.mesh_size))
         self.dx_bin = model.box_length / self.nx
@@ -89,6 +110,7 @@ class TwoPhaseDiscretization:
         self._cells = compat.cell_dofs(self.fraction.S0)[:n, 0]
         self._bin = np.clip((tri[:, :, 0].mean(axis=1) / self.dx_bin).astype(int), 0, self.nx - 1)
         self._xmax = tri[:, :, 0].max(axis=1)
+        self._above = tri[:, :, 1].mean(axis=1) > floor    # cells counted by the mass front
         self._volume = self.fraction.volume[self._cells] if len(self._cells) else np.zeros(0)
         self._min_edge = min(model.box_length / self.nx,
                              model.box_height / max(2, round(model.box_height / g.mesh_size)))
@@ -119,6 +141,13 @@ class TwoPhaseDiscretization:
         c.x.array[self._cells] = values
         c.x.scatter_forward()
 
+    def set_erodible(self) -> None:
+        """c = |K ∩ (layer ∪ mass)| / |K| and c_L = |K ∩ layer| / |K| (exact)."""
+        c = self.fraction.c
+        c.x.array[self._cells] = self.layer.initial_c()
+        c.x.scatter_forward()
+        self.layer.set_initial()
+
     # ------------------------------------------------------------------ measures
     def area(self) -> float:
         """∫ c dx [m²]."""
@@ -146,21 +175,25 @@ class TwoPhaseDiscretization:
         return self.comm.allreduce(top, op=MPI.MAX) / self._min_edge
 
     def measures(self) -> dict:
-        """Mass front (furthest x of a cell with c > model.fraction_threshold), thickness
-        front (right edge of the furthest column with h ≥ film_threshold), max height
+        """Mass front (furthest x of a cell with c > model.fraction_threshold; on the erodible
+        layer of those above 2 h_e), thickness front (right edge of the furthest column with
+        h ≥ film_threshold; on the layer ≥ max(film_threshold, 2 h_e)), max height
         max_j h_j, kinetic energy ∫ c ρ |u|²/2 over the granular cells (c > the threshold:
         the haze of c that the light fluid's circulation carries is left out, measured to
         hold 97 % of the mixture's energy once the deposit stops), gravity's moment
-        ∫ c ρ f·x, area ∫ c, max speed of the granular cells, bounds of c."""
+        ∫ c ρ f·x, area ∫ c, max speed of the granular cells, bounds of c; on the erodible
+        layer the layer's measures (``layer.LayerTracer.measures``)."""
         c = self.fraction.c.x.array[self._cells]
         granular = c > self.threshold
         self._granular.x.array[:] = (self.fraction.c.x.array > self.threshold).astype(float)
-        front = float(self._xmax[granular].max()) if granular.any() else 0.0
+        ahead = granular & self._above
+        front = float(self._xmax[ahead].max()) if ahead.any() else 0.0
         h = self.thickness()
-        thick = np.nonzero(h >= self.film_threshold)[0]
+        thick = np.nonzero(h >= self.thick_floor)[0]
         speed = self._granular_speed()
         lo, hi = self.fraction.bounds()
-        return {
+        out = self.layer.measures() if self.layer else {}
+        return out | {
             "front": self.comm.allreduce(front, op=MPI.MAX),
             "thick_front": float((thick[-1] + 1) * self.dx_bin) if len(thick) else -math.inf,
             "max_height": float(h.max()),
@@ -178,11 +211,13 @@ class TwoPhaseDiscretization:
         }
 
     def output_functions(self) -> list:
-        """c (DG0), u and p (P1), and the law's fields (μ(I): the inertial number, DG0)."""
+        """c (DG0), u and p (P1), c_L ("layer_fraction", DG0) on the erodible layer, and the law's fields (μ(I): the inertial number, DG0)."""
         sol = self.flow.solution
         self.out_velocity.interpolate(sol.sub(0))
         self.out_pressure.interpolate(sol.sub(1))
         fields = [self.fraction.c, self.out_velocity, self.out_pressure]
+        if self.layer:
+            fields.append(self.layer.fraction.c)
         fields.extend(self.out_extra.interpolated())
         return fields
 
@@ -211,10 +246,13 @@ class TwoPhaseFactory:
         return box_mesh(comm, m.box_length, m.box_height, self.cfg.geometry.mesh_size)
 
     def start(self, comm) -> TwoPhaseDiscretization:
-        """The box with c of the column, at rest."""
+        """The box with c of the column (or of the trapezoid on its layer), at rest."""
         disc = TwoPhaseDiscretization(self._box(comm), self.cfg)
         g = self.cfg.geometry
-        disc.set_column(g.base_length, g.height)
+        if disc.layer:
+            disc.set_erodible()
+        else:
+            disc.set_column(g.base_length, g.height)
         return disc
 
     def rebuild(self, tagged):

@@ -10,6 +10,8 @@ with the grad-div term γ S ∇·u (``forms.two_phase.grad_div``, S the secant v
 the iterate), the convection in skew-symmetric form and the open top's backflow stabilization
 (``forms.two_phase.skew_convection``: it creates no kinetic energy at the jumps of ρ(c)).
 The mixture coefficients use c clamped to [0, 1] (the advected c may leave it by its overshoot).
+Passive tracers (``add_tracer``: the erodible layer's fraction c_L) are advected by the same
+u^{n+1} with the same scheme and the same sub-steps as c; they do not enter the flow.
 """
 
 from __future__ import annotations
@@ -48,9 +50,17 @@ class TwoPhaseFlow(RegularizedFlow):
 
     def __init__(self, tagged, params: FlowParameters, settings: PicardSettings, light: LightFluid):
         self.light = light
+        self.tracers: dict[str, VolumeFraction] = {}
         super().__init__(tagged, params, settings)
         u = ufl.split(self.solution)[0]
         self.fraction.bind(u)
+
+    def add_tracer(self, name: str) -> VolumeFraction:
+        """A DG0 fraction named ``name`` advected with c (same scheme, same sub-steps)."""
+        tracer = VolumeFraction(self.mesh, self.light.courant, self.light.compression, name=name)
+        tracer.bind(ufl.split(self.solution)[0])
+        self.tracers[name] = tracer
+        return tracer
 
     # ------------------------------------------------------------------ forms
     def _build_forms(self) -> None:
@@ -83,43 +93,57 @@ class TwoPhaseFlow(RegularizedFlow):
         """The Picard step of the flow with cⁿ, then c^{n+1} advected by u^{n+1}."""
         report = super().solve_step(dt)
         if report.converged:
-            self.fraction.advance(dt)
+            steps = self.fraction.advance(dt)
+            for tracer in self.tracers.values():
+                tracer.advance(dt, steps)
         return report
+
+    def _fractions(self) -> list:
+        return [self.fraction, *self.tracers.values()]
 
     def accept_step(self) -> None:
         super().accept_step()
-        self.fraction.accept()
+        for fraction in self._fractions():
+            fraction.accept()
 
     def reset_iterate(self) -> None:
         super().reset_iterate()
-        self.fraction.reject()
+        for fraction in self._fractions():
+            fraction.reject()
 
     def copy_state_from(self, other) -> None:
         super().copy_state_from(other)
         self.fraction.c.x.array[:] = other.fraction.c.x.array
+        for name, tracer in self.tracers.items():
+            tracer.c.x.array[:] = other.tracers[name].c.x.array
 
     # ------------------------------------------------------------------ snapshot
     def snapshot(self) -> dict:
-        """uⁿ, pⁿ and "volume_fraction" cⁿ (per cell, as a cellwise-constant P1 field)."""
+        """uⁿ, pⁿ, "volume_fraction" cⁿ and the tracers by name (per cell, as cellwise-constant
+        P1 fields)."""
         fields = super().snapshot()
         mesh = self.mesh
         n = compat.num_owned_cells(mesh)
         tri = mesh.geometry.x[:, :2][compat.geometry_dofmap(mesh)[:n, :3]]
-        values = self.fraction.c.x.array[compat.cell_dofs(self.fraction.S0)[:n, 0]]
-        local = CellwiseField(vertices=tri, points=tri, values=np.repeat(values[:, None], 3, axis=1),
-                              degree=1)
-        fields["volume_fraction"] = concatenate(self.comm.allgather(local))
+        cells = compat.cell_dofs(self.fraction.S0)[:n, 0]
+        for fraction in self._fractions():
+            values = fraction.c.x.array[cells]
+            local = CellwiseField(vertices=tri, points=tri,
+                                  values=np.repeat(values[:, None], 3, axis=1), degree=1)
+            fields[fraction.c.name] = concatenate(self.comm.allgather(local))
         return fields
 
     def transfer(self, fields: dict) -> float:
-        """The state of ``snapshot`` fields; c evaluated at the cell midpoints."""
-        outside = super().transfer({k: v for k, v in fields.items() if k != "volume_fraction"})
-        if "volume_fraction" in fields:
-            S0 = self.fraction.S0
-            x = S0.tabulate_dof_coordinates()[:, :2]
-            self.fraction.c.x.array[:] = fields["volume_fraction"].evaluate(x)[:, 0]
+        """The state of ``snapshot`` fields; c and the tracers evaluated at the cell midpoints."""
+        names = {fraction.c.name for fraction in self._fractions()}
+        outside = super().transfer({k: v for k, v in fields.items() if k not in names})
+        x = self.fraction.S0.tabulate_dof_coordinates()[:, :2]
+        for fraction in self._fractions():
+            if fraction.c.name in fields:
+                fraction.c.x.array[:] = fields[fraction.c.name].evaluate(x)[:, 0]
         return outside
 
     def destroy(self) -> None:
         super().destroy()
-        self.fraction.destroy()
+        for fraction in self._fractions():
+            fraction.destroy()

@@ -1,9 +1,8 @@
-"""The granular volume fraction c (DG0) of the two-phase model: its initial value and its
-explicit, sub-cycled, conservative advection (``forms.two_phase``).
+"""The granular volume fraction c (DG0) of the two-phase model and its explicit, sub-cycled,
+conservative advection (``forms.two_phase``); its initial value is an exact cell overlap
+(``overlap``). The layer's fraction c_L of the erodible scene is a second ``VolumeFraction``
+advected with the sub-step count of c.
 
-* ``rectangle_fraction``: c_K = |K ∩ R| / |K| for a rectangle R, exact (each triangle is
-  clipped against the four sides of R, Sutherland–Hodgman, and the clipped polygon's area
-  taken by the shoelace formula);
 * ``VolumeFraction``: c, and ``advance(dt)``: N sub-steps of
   c_K ← c_K − (Δt/N)/|K| ∫_∂K (F_upwind + F_compression) ds, with N the smallest count such
   that (Δt/N) max_K ∫_∂K ((u·n)⁺ + C|u·n|) ds / |K| ≤ the Courant number. Under MPI the facet
@@ -26,47 +25,6 @@ from dpcollapse import compat
 from dpcollapse.forms.two_phase import compression_flux, fraction_flux, outflow_rate
 
 
-def _clip(poly: list, axis: int, bound: float, keep_below: bool) -> list:
-    """The part of the polygon ``poly`` (list of (x, y)) on one side of x_axis = bound."""
-    out = []
-    n = len(poly)
-    for i in range(n):
-        a, b = poly[i], poly[(i + 1) % n]
-        ina = a[axis] <= bound if keep_below else a[axis] >= bound
-        inb = b[axis] <= bound if keep_below else b[axis] >= bound
-        if ina:
-            out.append(a)
-        if ina != inb:
-            s = (bound - a[axis]) / (b[axis] - a[axis])
-            out.append((a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1])))
-    return out
-
-
-def _area(poly: list) -> float:
-    if len(poly) < 3:
-        return 0.0
-    p = np.asarray(poly)
-    x, y = p[:, 0], p[:, 1]
-    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
-
-
-def rectangle_fraction(triangles: np.ndarray, lower, upper) -> np.ndarray:
-    """|K ∩ R| / |K| for each triangle K of ``triangles`` (n, 3, 2) and the rectangle
-    R = [lower, upper] (exact up to round-off)."""
-    out = np.zeros(len(triangles))
-    for k, tri in enumerate(np.asarray(triangles, dtype=float)):
-        poly = [tuple(p) for p in tri]
-        for axis in (0, 1):
-            poly = _clip(poly, axis, lower[axis], keep_below=False)
-            if poly:
-                poly = _clip(poly, axis, upper[axis], keep_below=True)
-            if not poly:
-                break
-        whole = _area([tuple(p) for p in tri])
-        out[k] = _area(poly) / whole if whole > 0 else 0.0
-    return np.clip(out, 0.0, 1.0)
-
-
 def owned_triangles(mesh) -> np.ndarray:
     """(n_owned, 3, 2) vertex coordinates of the owned cells."""
     n = compat.num_owned_cells(mesh)
@@ -77,11 +35,11 @@ class VolumeFraction:
     """c on DG0 and its advection by a velocity given by ``bind(u)`` (a UFL vector on the same
     mesh; the flow's forms need c before its velocity exists)."""
 
-    def __init__(self, mesh, courant: float, compression: float):
+    def __init__(self, mesh, courant: float, compression: float, name: str = "volume_fraction"):
         self.mesh, self.comm = mesh, mesh.comm
         self.courant, self.compression = courant, compression
         self.S0 = S0 = compat.scalar_space(mesh, 0, "DG")
-        self.c = fem.Function(S0, name="volume_fraction")   # cⁿ (accepted)
+        self.c = fem.Function(S0, name=name)                 # cⁿ (accepted)
         self.work = fem.Function(S0)                         # c during the sub-steps
         self.pending = None                                  # c^{n+1} of a converged step
         self.substeps = 0                                    # of the last advance
@@ -137,10 +95,12 @@ class VolumeFraction:
         local = float((weight * np.abs(self._assemble(self._divergence))).sum())
         return self.comm.allreduce(local, op=MPI.SUM)
 
-    def advance(self, dt: float) -> int:
-        """c^{n+1} from cⁿ with the current u (kept as ``pending``); the number of sub-steps."""
-        rate = self.max_rate()
-        steps = max(1, math.ceil(dt * rate / self.courant - 1e-12)) if rate > 0 else 1
+    def advance(self, dt: float, steps: int | None = None) -> int:
+        """c^{n+1} from cⁿ with the current u (kept as ``pending``) in ``steps`` sub-steps
+        (None: the fewest the Courant number allows); the number of sub-steps."""
+        if steps is None:
+            rate = self.max_rate()
+            steps = max(1, math.ceil(dt * rate / self.courant - 1e-12)) if rate > 0 else 1
         h = dt / steps
         self.work.x.array[:] = self.c.x.array
         for _ in range(steps):
