@@ -132,9 +132,9 @@ def laws_plot(out: Path, scaled_time: float, sweeps: list[tuple[str, Path]]) -> 
     l0 = 0.1
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
     aa = np.logspace(np.log10(0.4), np.log10(12), 50)
-    print("| sweep | a | ΔX [m] | ΔL/L0 | H_f/L0 | end | ΔL/L0 at the end | H_f/L0 at the end "
-          "| area drift | wall [s] |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| sweep | a | ΔX [m] | ΔL/L0 mass | ΔL/L0 thickness | H_f/L0 | end | ΔL/L0 mass at the end "
+          "| H_f/L0 at the end | area drift | wall [s] |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for (name, sweep_dir), marker in zip(sweeps, "osD^v"):
         with (sweep_dir / "sweep.csv").open() as f:
             rows = [r for r in csv.DictReader(f) if r.get("status") in ("at_rest", "end_time")]
@@ -143,6 +143,7 @@ def laws_plot(out: Path, scaled_time: float, sweeps: list[tuple[str, Path]]) -> 
         order = np.argsort(a)
         a = a[order]
         run = np.array([(float(picked[i]["front"]) - l0) / l0 for i in order])
+        thick = np.array([(float(picked[i]["thick_front"]) - l0) / l0 for i in order])
         hf = np.array([float(picked[i]["max_height"]) / l0 for i in order])
         rested = np.array([rows[i]["status"] == "at_rest" for i in order])
         for k, i in enumerate(order):
@@ -152,16 +153,18 @@ def laws_plot(out: Path, scaled_time: float, sweeps: list[tuple[str, Path]]) -> 
             t_scale = np.sqrt(9.81 / float(r[H0_KEY]))
             end = (f"at rest, T = {summ['t'] * t_scale:.1f}" if r["status"] == "at_rest"
                    else f"end time, T = {summ['t'] * t_scale:.1f}")
-            print(f"| {name} | {a[k]:g} | {run_json['config']['geometry']['mesh_size']} | {run[k]:.2f} "
+            print(f"| {name} | {a[k]:g} | {run_json['config']['geometry']['mesh_size']} | {run[k]:.2f} | {thick[k]:.2f} "
                   f"| {hf[k]:.3f} | {end} | {(summ['front'] - l0) / l0:.2f} | {summ['max_height'] / l0:.3f} "
                   f"| {summ['area_drift']:.1e} | {float(r.get('wall_time') or 'nan'):.0f} |")
-        line = ax1.loglog(a, run, marker + "-", label=name)[0]
+        line = ax1.loglog(a, run, marker + "-", label=name + " (mass front)")[0]
+        ax1.loglog(a, thick, marker + ":", color=line.get_color(), label=name + " (thickness front)")
         ax2.loglog(a, hf, marker + "-", color=line.get_color(), label=name)
         if (~rested).any():
             ax1.loglog(a[~rested], run[~rested], marker, mfc="white", mec=line.get_color())
             ax2.loglog(a[~rested], hf[~rested], marker, mfc="white", mec=line.get_color())
-        for label, y, cut, above in (("ΔL/L0", run, 3.0, False), ("ΔL/L0", run, 3.0, True),
-                                     ("H_f/L0", hf, 0.7, True)):
+        for label, y, cut, above in (("ΔL/L0 mass", run, 3.0, False), ("ΔL/L0 mass", run, 3.0, True),
+                                     ("ΔL/L0 thickness", thick, 3.0, False),
+                                     ("ΔL/L0 thickness", thick, 3.0, True), ("H_f/L0", hf, 0.7, True)):
             sel = a >= cut - 1e-9 if above else a <= cut + 1e-9
             p = fit(a[sel], y[sel])
             side = f"a ≥ {cut}" if above else f"a ≤ {cut}"
@@ -174,7 +177,7 @@ def laws_plot(out: Path, scaled_time: float, sweeps: list[tuple[str, Path]]) -> 
     ax2.plot(aa[aa >= 0.7], 0.74 * (aa[aa >= 0.7] / 0.74) ** (1 / 3), "k:", label="∝ a^(1/3) (through 0.74)")
     fig.suptitle(f"mass front and top height at t √(g/H0) = {scaled_time:g} "
                  "(open: the run did not meet the rest rule by its end)")
-    ax1.set_xlabel("a = H0/L0"), ax1.set_ylabel("ΔL/L0 (mass front)"), ax1.legend(fontsize=7)
+    ax1.set_xlabel("a = H0/L0"), ax1.set_ylabel("ΔL/L0"), ax1.legend(fontsize=6)
     ax2.set_xlabel("a = H0/L0"), ax2.set_ylabel("H_f/L0"), ax2.legend(fontsize=7)
     ax1.grid(alpha=0.3), ax2.grid(alpha=0.3)
     fig.tight_layout()
