@@ -58,6 +58,27 @@ def fit(a: np.ndarray, y: np.ndarray) -> tuple[float, float] | None:
     return float(np.exp(logc)), float(n)
 
 
+def fit_text(a: np.ndarray, y: np.ndarray, cut: float, above: bool, padding: bool = True) -> str:
+    """"a ≥ cut: c a^n (k points)" (or a ≤ cut) of ``fit`` on the aspect ratios on one side
+    of ``cut`` (a is rounded to 9 digits by the callers, so the cut is exact)."""
+    sel = a >= cut - 1e-9 if above else a <= cut + 1e-9
+    p = fit(a[sel], y[sel])
+    side = f"a ≥ {cut}" if above else f"a ≤ {cut}"
+    side = f"{side:8s}:" if padding else f"{side}:"
+    return side + " " + (f"{p[0]:.2f} a^{p[1]:.2f} ({sel.sum()} points)" if p else f"{sel.sum()} point(s), no fit")
+
+
+def experimental_laws(ax1, ax2) -> None:
+    """The experiments' runout bands (1.2–1.8 a for a ≤ 3, 1.9–2.3 a^(2/3) above) on ``ax1`` and
+    the deposit height (H_f/L0 = a below 0.7, ∝ a^(1/3) through 0.74 above) on ``ax2``."""
+    aa = np.logspace(np.log10(0.4), np.log10(12), 50)
+    ax1.fill_between(aa, 1.2 * aa, 1.8 * aa, where=aa <= 3, color="0.85", label="1.2a – 1.8a (a ≤ 3)")
+    ax1.fill_between(aa, 1.9 * aa ** (2 / 3), 2.3 * aa ** (2 / 3), where=aa >= 2.8, color="0.7",
+                     label="1.9a^(2/3) – 2.3a^(2/3)")
+    ax2.plot(aa[aa <= 0.7], aa[aa <= 0.7], "k--", label="H_f/L0 = a")
+    ax2.plot(aa[aa >= 0.7], 0.74 * (aa[aa >= 0.7] / 0.74) ** (1 / 3), "k:", label="∝ a^(1/3) (through 0.74)")
+
+
 def at_scaled_time(sweep_dir: Path, row: dict, scaled_time: float) -> dict:
     """``row`` with front, thick_front and max_height at the first step of its run with
     t √(g/H0) ≥ ``scaled_time`` (the last step if the run ended before)."""
@@ -87,7 +108,6 @@ def law_plot(sweep_dir: Path, out: Path, scaled_time: float | None = None) -> No
         groups.setdefault((r.get("boundary.bed_condition", "no_slip"), r.get("geometry.mesh_size", "fixed")),
                           []).append(r)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
-    aa = np.logspace(np.log10(0.4), np.log10(12), 50)
     for (bed, h), rs in sorted(groups.items()):
         a = np.round([float(r[H0_KEY]) / l0 for r in rs], 9)   # 0.3/0.1 = 2.9999999999999996
         order = np.argsort(a)
@@ -107,16 +127,8 @@ def law_plot(sweep_dir: Path, out: Path, scaled_time: float | None = None) -> No
                                        ("ΔL/L0 mass", a, run_mass, 3.0, False),
                                        ("ΔL/L0 mass", a, run_mass, 3.0, True),
                                        ("H_f/L0", a, hf, 0.7, True)):
-            sel = x >= cut if above else x <= cut
-            p = fit(x[sel], y[sel])
-            side = f"a ≥ {cut}" if above else f"a ≤ {cut}"
-            print(f"{bed:8s} h={h:5s} {name:12s} {side:8s}: "
-                  + (f"{p[0]:.2f} a^{p[1]:.2f} ({sel.sum()} points)" if p else f"{sel.sum()} point(s), no fit"))
-    ax1.fill_between(aa, 1.2 * aa, 1.8 * aa, where=aa <= 3, color="0.85", label="1.2a – 1.8a (a ≤ 3)")
-    ax1.fill_between(aa, 1.9 * aa ** (2 / 3), 2.3 * aa ** (2 / 3), where=aa >= 2.8, color="0.7",
-                     label="1.9a^(2/3) – 2.3a^(2/3)")
-    ax2.plot(aa[aa <= 0.7], aa[aa <= 0.7], "k--", label="H_f/L0 = a")
-    ax2.plot(aa[aa >= 0.7], 0.74 * (aa[aa >= 0.7] / 0.74) ** (1 / 3), "k:", label="∝ a^(1/3) (through 0.74)")
+            print(f"{bed:8s} h={h:5s} {name:12s} {fit_text(x, y, cut, above)}")
+    experimental_laws(ax1, ax2)
     if scaled_time is not None:
         fig.suptitle(f"fronts and height at t √(g/H0) = {scaled_time:g}")
     ax1.set_xlabel("a = H0/L0"), ax1.set_ylabel("ΔL/L0"), ax1.legend(fontsize=6), ax1.grid(alpha=0.3)
@@ -131,7 +143,6 @@ def laws_plot(out: Path, scaled_time: float, sweeps: list[tuple[str, Path]]) -> 
     row per run (with the run's end: at rest at t √(g/H0) = …, or its end time) and the fits."""
     l0 = 0.1
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
-    aa = np.logspace(np.log10(0.4), np.log10(12), 50)
     print("| sweep | a | ΔX [m] | ΔL/L0 mass | ΔL/L0 thickness | H_f/L0 | end | ΔL/L0 mass at the end "
           "| H_f/L0 at the end | area drift | wall [s] |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
@@ -165,16 +176,8 @@ def laws_plot(out: Path, scaled_time: float, sweeps: list[tuple[str, Path]]) -> 
         for label, y, cut, above in (("ΔL/L0 mass", run, 3.0, False), ("ΔL/L0 mass", run, 3.0, True),
                                      ("ΔL/L0 thickness", thick, 3.0, False),
                                      ("ΔL/L0 thickness", thick, 3.0, True), ("H_f/L0", hf, 0.7, True)):
-            sel = a >= cut - 1e-9 if above else a <= cut + 1e-9
-            p = fit(a[sel], y[sel])
-            side = f"a ≥ {cut}" if above else f"a ≤ {cut}"
-            print(f"{name}: {label} {side}: "
-                  + (f"{p[0]:.2f} a^{p[1]:.2f} ({sel.sum()} points)" if p else f"{sel.sum()} point(s), no fit"))
-    ax1.fill_between(aa, 1.2 * aa, 1.8 * aa, where=aa <= 3, color="0.85", label="1.2a – 1.8a (a ≤ 3)")
-    ax1.fill_between(aa, 1.9 * aa ** (2 / 3), 2.3 * aa ** (2 / 3), where=aa >= 2.8, color="0.7",
-                     label="1.9a^(2/3) – 2.3a^(2/3)")
-    ax2.plot(aa[aa <= 0.7], aa[aa <= 0.7], "k--", label="H_f/L0 = a")
-    ax2.plot(aa[aa >= 0.7], 0.74 * (aa[aa >= 0.7] / 0.74) ** (1 / 3), "k:", label="∝ a^(1/3) (through 0.74)")
+            print(f"{name}: {label} {fit_text(a, y, cut, above, padding=False)}")
+    experimental_laws(ax1, ax2)
     fig.suptitle(f"mass front and top height at t √(g/H0) = {scaled_time:g} "
                  "(open: the run did not meet the rest rule by its end)")
     ax1.set_xlabel("a = H0/L0"), ax1.set_ylabel("ΔL/L0"), ax1.legend(fontsize=6)

@@ -211,7 +211,8 @@ class TwoPhaseDiscretization:
         }
 
     def output_functions(self) -> list:
-        """c (DG0), u and p (P1), c_L ("layer_fraction", DG0) on the erodible layer, and the law's fields (μ(I): the inertial number, DG0)."""
+        """c (DG0), u and p (P1), c_L ("layer_fraction", DG0) on the erodible layer, and the
+        law's fields (μ(I): the inertial number, DG0)."""
         sol = self.flow.solution
         self.out_velocity.interpolate(sol.sub(0))
         self.out_pressure.interpolate(sol.sub(1))
