@@ -52,5 +52,33 @@ def shared_tmp(tmp_path, comm):
     return _P(comm.bcast(str(tmp_path), root=0))
 
 
+#: ``DPCOLLAPSE_TEST_CPU=FILE``: append one JSON line per test with its CPU seconds (this
+#: process and the subprocesses it waited for). Unlike wall time, CPU time does not grow
+#: when other jobs share the machine, so the suite's budget can be measured on a busy one
+#: (docs/development.md, "Time budget").
+_CPU_LOG = os.environ.get("DPCOLLAPSE_TEST_CPU")
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    if not _CPU_LOG:
+        yield
+        return
+    import json
+    import resource
+    import time
+
+    def cpu():
+        own = resource.getrusage(resource.RUSAGE_SELF)
+        children = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+    cpu0, wall0 = cpu(), time.perf_counter()
+    yield
+    with open(_CPU_LOG, "a") as f:
+        f.write(json.dumps({"test": item.nodeid, "cpu": round(cpu() - cpu0, 3),
+                            "wall": round(time.perf_counter() - wall0, 3)}) + "\n")
+
+
 logging.getLogger("UFL").setLevel(logging.WARNING)
 logging.getLogger("FFCX").setLevel(logging.WARNING)

@@ -3,9 +3,9 @@
 Each case is a config of ``configs/`` with ``--set`` overrides; :func:`run_case` runs it
 with :class:`dpcollapse.simulation.Simulation` and returns a few scalars of the end state
 (number of steps and remeshes, front, maximum height, kinetic energy, max speed, total
-fixed-point iterations). ``reference.json`` holds these scalars from a run of the code
-before the redesign of issue 12 (commit recorded in the file); ``test_regression.py``
-compares the current code with them.
+fixed-point iterations). ``spread.py`` runs these cases under several floating-point
+environments and writes ``reference.json`` (the centre of each measured range and its
+tolerance); ``test_regression.py`` compares the current code with it.
 
 This file imports nothing from ``tests`` so that it can run against an older checkout::
 

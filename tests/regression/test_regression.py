@@ -1,22 +1,17 @@
-"""The current code against stored values of the code before the redesign (issue 12).
+"""The current code against stored values, within tolerances measured across platforms.
 
-``reference.json`` was written by ``tests/regression/record.py`` from runs of commit
-d1fd579 (the ``commit`` field of each case). Steps, remeshes and fixed-point iterations
-must be equal; front and maximum height within 1e-6 m; kinetic energy within 1e-6 relative
-(or 1e-9 J/m, for a mass at rest); the largest speed within 1e-6 m/s.
+``reference.json`` holds, per case and quantity, the centre of the range that the same code
+gave under several floating-point environments — OpenBLAS kernels (Prescott, Sandybridge,
+Haswell, Zen, SkylakeX), 1 and 2 BLAS threads, DOLFINx 0.5.2, 0.9 and 0.11, and the values
+other machines reported — and a tolerance of twice that spread (never below a floor of
+10 µm for positions, 1e-5 relative for energies and speeds). It is written by
+``tests/regression/spread.py`` from the measurements in ``tests/regression/spread-*.json``;
+the measured spread is in ``docs/development.md``. A collapse amplifies round-off (the
+rigid run to rest: a remesh or two, 0.3 mm of runout), so a value stored to the last bit
+of one CPU would fail on the next one.
 
-Recorded (old code, serial): ``PYTHONPATH=<checkout of d1fd579> python
-tests/regression/record.py --out tests/regression/reference.json``; the full rigid run was
-recorded twice with identical results (935 steps, 18 remeshes, front 0.666368067829625 m,
-maximum height 0.21001527625351757 m at t = 0.9327 s).
-
-Those values are DOLFINx 0.5.2's. The same code on 0.9 and 0.11 differs by round-off that
-this problem amplifies (docs/benchmarks/2026-12-01-dolfinx-versions.md: the deposit within
-0.26 mm, a remesh or two more or fewer), so each supported version has its own stored
-values, compared just as strictly: ``reference-0.9.json`` and ``reference-0.11.json`` were
-recorded by the same command in Debian 13 and sid chroots (``scripts/chroot-test.sh trixie
---run '.venv/bin/python tests/regression/record.py --out …'``) from commit 700ca9c, whose
-0.5.2 values are those of d1fd579 exactly.
+Where round-off cannot differ, the comparison stays strict: the same run twice in one
+process gives the same bits, and 2 ranks give what one gives (within the same tolerances).
 """
 
 import json
@@ -25,45 +20,56 @@ from pathlib import Path
 import pytest
 from mpi4py import MPI
 
-from dpcollapse import compat
 from dpcollapse.io.diagnostics import read_diagnostics
-from tests.regression.record import CASES, run_case
+from tests.regression.record import CASES, KEYS, run_case
 
-_FILES = {(0, 5): "reference.json", (0, 9): "reference-0.9.json", (0, 11): "reference-0.11.json"}
-_FILE = _FILES.get(tuple(compat.DOLFINX_VERSION[:2]))
-pytestmark = pytest.mark.skipif(
-    _FILE is None, reason=f"no stored values for DOLFINx {compat.DOLFINX_VERSION_TEXT}")
-REFERENCE = json.loads((Path(__file__).parent / _FILE).read_text()) if _FILE else {}
+REFERENCE = json.loads((Path(__file__).parent / "reference.json").read_text())["cases"]
 
 
-def _compare(got: dict, ref: dict) -> None:
-    for key in ("steps", "remeshes", "flow_solves"):
-        assert got[key] == ref[key], (key, got[key], ref[key])
+def _compare(got: dict, name: str) -> None:
+    ref = REFERENCE[name]
     assert got["status"] == ref["status"]
-    assert got["t"] == pytest.approx(ref["t"], abs=1e-12)
-    for key in ("front", "max_height", "max_speed"):
-        assert got[key] == pytest.approx(ref[key], abs=1e-6), key
-    assert got["kinetic_energy"] == pytest.approx(ref["kinetic_energy"], rel=1e-6, abs=1e-9)
+    off = {key: (got[key], ref["value"][key], ref["tolerance"][key]) for key in KEYS
+           if not abs(got[key] - ref["value"][key]) <= ref["tolerance"][key]}
+    assert not off, f"{name}: (value, stored centre, tolerance) outside the measured band: {off}"
+
+
+def test_every_case_has_a_measured_reference():
+    assert set(REFERENCE) == set(CASES) | {"rigid_full"}
+    for name, ref in REFERENCE.items():
+        assert len(ref["runs"]) >= 6, name  # several kernels, thread counts and versions
+        for key in KEYS:
+            lo, hi = ref["measured"][key]
+            assert lo <= ref["value"][key] <= hi
+            assert ref["tolerance"][key] >= hi - lo  # never tighter than the spread
 
 
 @pytest.mark.parametrize("name", list(CASES))
 def test_short_run_matches_stored_values(name, tmp_path):
-    _compare(run_case(name, tmp_path, MPI.COMM_SELF), REFERENCE[name])
+    _compare(run_case(name, tmp_path, MPI.COMM_SELF), name)
+
+
+def test_the_same_run_twice_gives_the_same_bits(tmp_path):
+    """The most round-off-sensitive case (its Picard count moves by 20 % between BLAS
+    kernels) is deterministic on one machine."""
+    first = run_case("bagnold_short", tmp_path / "a", MPI.COMM_SELF)
+    second = run_case("bagnold_short", tmp_path / "b", MPI.COMM_SELF)
+    assert first == second
 
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("name", ["rigid_short", "plug_short"])
 def test_short_run_on_all_ranks_matches_stored_values(name, shared_tmp, comm):
-    """The serial reference holds on 2 ranks too (same steps and remeshes; 1e-6)."""
-    _compare(run_case(name, shared_tmp, comm), REFERENCE[name])
+    """The stored values hold on 2 ranks too."""
+    _compare(run_case(name, shared_tmp, comm), name)
 
 
 @pytest.mark.slow
 def test_full_rigid_run_matches_stored_values(tmp_path):
-    """configs/rigid.yaml to rest (~90 s serial): same steps and remeshes, front and
-    maximum height at rest within 1e-6 m."""
+    """configs/rigid.yaml to rest (~90 s serial): steps, remeshes, front and height at rest
+    within the measured band."""
     got = run_case("rigid_full", tmp_path, MPI.COMM_SELF)
-    _compare(got, REFERENCE["rigid_full"])
+    _compare(got, "rigid_full")
     # and what makes it a physical result (this test replaces tests/system/test_collapse.py's
     # test_full_rigid_case_reaches_rest, so that the 90 s run is done once)
     d = read_diagnostics(tmp_path / "diagnostics.csv")
