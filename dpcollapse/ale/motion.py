@@ -37,7 +37,9 @@ class MeshMotion:
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=flow.tagged.facet_tags)
         surface = [b.tag for b in flow.params.of_kind(BoundaryKind.FREE_SURFACE)]
         ds_surface = sum((ds(tag) for tag in surface[1:]), ds(surface[0]))
-        a, L = mesh_velocity_forms(ufl.TrialFunction(Vw), ufl.TestFunction(Vw), flow.u_old,
+        # the velocity the boundary follows: uⁿ, or the extrapolated u* of time.scheme bdf2
+        source = getattr(flow, "motion_source", flow.u_old)
+        a, L = mesh_velocity_forms(ufl.TrialFunction(Vw), ufl.TestFunction(Vw), source,
                                    fem.Constant(mesh, compat.ScalarType(penalty)), ds_surface)
         self.system = LinearSystem(a, L, self._slip_bcs(Vw))
         self._slanted = self._slanted_sides(Vw)
@@ -75,8 +77,12 @@ class MeshMotion:
                 sides.append((np.asarray(nodes, dtype=np.int64), np.asarray(b.normal, dtype=float)))
         return sides
 
-    def compute(self) -> None:
-        """Solve for w from the accepted velocity uⁿ on the current mesh."""
+    def compute(self, dt: float | None = None) -> None:
+        """Solve for w from the accepted velocity uⁿ on the current mesh (time.scheme bdf2:
+        from u*, extrapolated to the middle of a step ``dt``)."""
+        prepare = getattr(self.flow, "prepare_motion", None)
+        if prepare is not None:
+            prepare(dt)
         self.solver.set_operator(self.system.assemble_matrix())
         try:
             self.solver.solve(self.system.assemble_vector(), compat.petsc_vec(self.w))
