@@ -78,11 +78,26 @@ class MeshMotion:
         return sides
 
     def compute(self, dt: float | None = None) -> None:
-        """Solve for w from the accepted velocity uⁿ on the current mesh (time.scheme bdf2:
-        from u*, extrapolated to the middle of a step ``dt``)."""
+        """Solve for w from the accepted velocity uⁿ on the current mesh. time.scheme bdf2
+        (once the flow has a history): from u* ≈ u(tⁿ + Δt/2) for a step ``dt``, and by the
+        explicit midpoint rule for the node trajectories ẋ = w(x, t) — w solved once on Ωⁿ,
+        the nodes moved by Δt/2·w, w solved again there with the same u*, the nodes put back
+        (the extension depends on the mesh through its normals and h: w on Ωⁿ alone would
+        leave a first-order error)."""
         prepare = getattr(self.flow, "prepare_motion", None)
-        if prepare is not None:
-            prepare(dt)
+        midpoint = bool(prepare(dt)) if prepare is not None else False
+        self._solve()
+        if midpoint:
+            x = self.mesh.geometry.x
+            start = x.copy()
+            x[:, :2] += 0.5 * dt * self.node_velocity()
+            try:
+                self._solve()
+            finally:
+                x[:] = start
+
+    def _solve(self) -> None:
+        """w on the current node positions, w·n = 0 made exact on slanted solid sides."""
         self.solver.set_operator(self.system.assemble_matrix())
         try:
             self.solver.solve(self.system.assemble_vector(), compat.petsc_vec(self.w))

@@ -139,11 +139,14 @@ class StokesState:
         """The velocity whose boundary motion the mesh follows: uⁿ (BDF1) or u*."""
         return self.u_motion if self.scheme == "bdf2" else self.u_old
 
-    def prepare_motion(self, dt: float | None) -> None:
-        """u* = uⁿ + (r/2)(uⁿ − u^{n−1}) for a step ``dt`` (BDF2 only; None: uⁿ)."""
-        if self.scheme == "bdf2":
-            u = self.u_old.x.array
-            self.u_motion.x.array[:] = u if dt is None else self.history.midpoint(u, dt)
+    def prepare_motion(self, dt: float | None) -> bool:
+        """u* = uⁿ + (r/2)(uⁿ − u^{n−1}) for a step ``dt`` (BDF2 only; None: uⁿ); whether
+        the mesh motion is to be second order (BDF2 with a step and a history)."""
+        if self.scheme != "bdf2":
+            return False
+        u = self.u_old.x.array
+        self.u_motion.x.array[:] = u if dt is None else self.history.midpoint(u, dt)
+        return dt is not None and self.history.previous_step is not None
 
     def set_step(self, dt: float) -> None:
         """Make the forms those of a step ``dt`` on the current (moved) mesh: BDF1's Δt, or
