@@ -606,7 +606,14 @@ class TimeConfig(_Section):
     cfl: Number = _f(
         1.0, "", "Courant bound of the adaptive step: dt <= cfl min_K h_K/max_K |u| "
         "(h_K shortest edge of cell K, |u| at its vertices)", gt=0, le=10)
-    dt_max: Number = _f(1.5e-3, "s", "Largest time step (adaptive)", gt=0)
+    dt_max: Number = _f(1.5e-3, "s", "Largest time step (adaptive or tolerance)", gt=0)
+    scheme: Literal["bdf1", "bdf2"] = _f(
+        "bdf1", "", "Time scheme of the 2D regularized model: bdf1 (backward Euler, mesh moved "
+        "by the previous step's velocity) or bdf2 (variable-step BDF2, mesh moved by the "
+        "velocity extrapolated to the step's middle; first order on a new mesh)")
+    tolerance: Number | None = _f(
+        None, "m/s", "Error-controlled step (time.scheme bdf2): RMS over the velocity dofs of "
+        "the local error estimate per step; null: fixed steps (or time.adaptive)", gt=0)
     end_time: Number = _f(2.0, "s", "Simulated time cap", gt=0)
     output_every: Count = _f(20, "", "Write XDMF output every N steps", ge=1)
     checkpoint_every: Count = _f(50, "", "Write a restart checkpoint every N steps", ge=1)
@@ -631,6 +638,18 @@ class TimeConfig(_Section):
             raise ConfigError(
                 f"time.dt_max = {_fmt(self.dt_max)}: must be >= time.dt = {_fmt(self.dt)} (s) "
                 f"with time.adaptive = true")
+        if self.tolerance is not None:
+            if self.scheme != "bdf2":
+                raise ConfigError(f"time.tolerance = {_fmt(self.tolerance)}: needs the error "
+                                  "estimate of time.scheme = bdf2; set time.scheme: bdf2 or "
+                                  "time.tolerance: null")
+            if self.adaptive:
+                raise ConfigError("time.adaptive = true: must be false with time.tolerance "
+                                  "set (one step-size rule at a time)")
+            if self.dt_max < self.dt:
+                raise ConfigError(
+                    f"time.dt_max = {_fmt(self.dt_max)}: must be >= time.dt = {_fmt(self.dt)} "
+                    f"(s) with time.tolerance set")
         return self
 
 
@@ -672,6 +691,11 @@ class Config(_Section):
             # iteration per step went on from t = 0.9 s to the 1.8 s cap instead of stopping
             raise ConfigError("numerics.extrapolate = true with time.adaptive = true: measured "
                               "to creep instead of coming to rest; must be false with time.adaptive = true")
+        if self.time.scheme == "bdf2" and (self.model.name != "stokes"
+                                           or self.numerics.method != "regularized"):
+            raise ConfigError(f"time.scheme = 'bdf2': only with model.name = stokes and "
+                              f"numerics.method = regularized (got {self.model.name}, "
+                              f"{self.numerics.method}); use bdf1")
         if self.geometry.shape == "layer" and self.numerics.linear_solver == "iterative":
             raise ConfigError("numerics.linear_solver = 'iterative': not available on a periodic "
                               "layer (geometry.shape = layer); use mumps or superlu_dist")

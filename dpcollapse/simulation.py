@@ -22,6 +22,10 @@ Step size: fixed ``time.dt`` (a step cut by a failure or the mesh motion recover
 step), or with ``time.adaptive`` the next target Δt ← ×STEP_GROWTH after a fixed point of
 ≤ FEW_ITERATIONS iterations, ×STEP_SHRINK after > MANY_ITERATIONS, else unchanged, within
 [dt_min, dt_max]; each step then takes min(target, Courant bound, mesh-motion limit).
+With ``time.tolerance`` (``time.scheme: bdf2``) the PI controller of
+``solvers.step_control`` sets the target from the model's local error estimate; a step whose
+estimate exceeds the tolerance is undone (as a failed one) and retried shorter, and counted
+in run.json's ``rejected_steps``.
 """
 
 from __future__ import annotations
@@ -48,6 +52,7 @@ from dpcollapse.io.runinfo import RunInfo
 from dpcollapse.io.exports import CheckpointExport, FieldExport
 from dpcollapse.loop import Discretization as ModelDiscretization, Events, LoopState, ModelFactory
 from dpcollapse.models.registry import model_factory
+from dpcollapse.solvers.step_control import StepController
 from dpcollapse.discretization import (Discretization, flow_parameters, initial_velocity,  # noqa: F401
                                        picard_settings, rheology)
 
@@ -176,6 +181,8 @@ class Simulation:
         self.krylov_iterations = 0  # Krylov iterations of the flow solves (retired meshes)
         self.fallbacks = 0  # step attempts Newton failed and Picard redid (retired meshes)
         self.halvings = 0   # step attempts that failed and were retried with dt/2
+        #: the error-controlled step (time.tolerance), else None
+        self.controller = StepController(cfg.time.tolerance) if cfg.time.tolerance else None
         self.dt_limit = math.inf
         self.courant = 0.0  # Courant number Δt·max_K |uⁿ|/h_K of the last step
         self.wall0 = time.perf_counter()
@@ -224,6 +231,8 @@ class Simulation:
         cells_after = self.comm.allreduce(compat.num_owned_cells(tagged.mesh), op=MPI.SUM)
         self.state.remeshes += 1
         self.state.last_remesh_step = self.state.step
+        if self.controller is not None:   # the new mesh has no history: no estimate for 2 steps
+            self.controller.forget()
         angle_after = quality(self.disc.mesh)["min_angle"]
         self.state.remesh_angle_after = angle_after
         if angle_after < cfg.numerics.remesh_min_angle:
@@ -315,6 +324,7 @@ class Simulation:
         self.dt_limit = min(limit, model_limit)
         dt = min(dt, model_limit)
         spent = 0  # iterations of failed attempts of this step (they cost as much)
+        error = None   # the local error estimate of the accepted step (time.tolerance)
         while True:
             token, landed = domain.move(self.disc, dt)
             before_landing = self.disc
@@ -324,6 +334,16 @@ class Simulation:
             report = self.disc.flow.solve_step(dt)
             self.timings["solve"] += time.perf_counter() - t0
             spent += report.iterations
+            if report.converged and self.controller is not None:
+                error = self.disc.flow.local_error()
+                if error is not None and dt > cfg.time.dt_min and not self.controller.accept(error):
+                    retry = max(self.controller.retry_step(dt, error), cfg.time.dt_min)
+                    log.debug("t = %.4f s: step %.2e s rejected (local error %.2e m/s > %.2e); "
+                              "retried with %.2e s", st.t, dt, error, cfg.time.tolerance, retry)
+                    self._undo_attempt(token, landed, before_landing)
+                    dt = retry
+                    domain.recompute(self.disc, dt)
+                    continue
             if report.converged:
                 dt = getattr(report, "dt", None) or dt   # an explicit stage bound may cut it
                 if landed:
@@ -331,11 +351,7 @@ class Simulation:
                     log.debug("t = %.4f s: %d nose node(s) landed on the bed", st.t + dt, landed)
                     self._retire(before_landing)
                 break
-            domain.undo(self.disc, token)
-            if landed:
-                self._retire(self.disc)
-                self.disc = before_landing
-            self.disc.flow.reset_iterate()
+            self._undo_attempt(token, landed, before_landing)
             if dt / 2 < cfg.time.dt_min:
                 raise ConvergenceError(
                     f"the fixed point did not converge at t = {st.t:.4f} s even with dt = "
@@ -345,7 +361,7 @@ class Simulation:
                         st.t, dt, report.message, report.residual)
             self.halvings += 1
             dt /= 2
-            domain.recompute(self.disc)
+            domain.recompute(self.disc, dt)
         self.disc.flow.accept_step()
         self.courant = dt * rate
         st.t += dt
@@ -353,11 +369,24 @@ class Simulation:
         if cfg.time.adaptive:
             st.dt_target = self._next_target(dt, report.iterations)
             return dt, spent, report.residual
+        if self.controller is not None:
+            target = self.controller.next_step(dt, error)
+            st.dt_target = min(max(target, cfg.time.dt_min), cfg.time.dt_max)
+            return dt, spent, report.residual
         cut = dt < min(st.dt_target, model_limit)   # by a failure, the domain or end_time
         st.dt_target = min(cfg.time.dt, 2.0 * dt) if cut else st.dt_target
         if st.dt_target < cfg.time.dt:
             st.dt_target = min(cfg.time.dt, 1.5 * st.dt_target)
         return dt, spent, report.residual
+
+    def _undo_attempt(self, token, landed: int, before_landing) -> None:
+        """Undo a failed or rejected attempt: the mesh back, the landing rebuild dropped, the
+        fixed point restarted from the accepted state."""
+        self.domain.undo(self.disc, token)
+        if landed:
+            self._retire(self.disc)
+            self.disc = before_landing
+        self.disc.flow.reset_iterate()
 
     # ------------------------------------------------------------------ loop
     def run(self, observers=()) -> dict:
@@ -450,6 +479,7 @@ class Simulation:
             "krylov_iterations": self.krylov_iterations + self.disc.flow.solver.krylov_iterations,
             "newton_fallbacks": self.fallbacks + self.disc.flow.solver.fallbacks,
             "halved_steps": self.halvings,
+            "rejected_steps": self.controller.rejected if self.controller else 0,
         }
         summary.update({k: m[k] for k in self.disc.extra_measures})
         summary["model"] = self.cfg.model.name

@@ -37,7 +37,9 @@ class MeshMotion:
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=flow.tagged.facet_tags)
         surface = [b.tag for b in flow.params.of_kind(BoundaryKind.FREE_SURFACE)]
         ds_surface = sum((ds(tag) for tag in surface[1:]), ds(surface[0]))
-        a, L = mesh_velocity_forms(ufl.TrialFunction(Vw), ufl.TestFunction(Vw), flow.u_old,
+        # the velocity the boundary follows: uⁿ, or the extrapolated u* of time.scheme bdf2
+        source = getattr(flow, "motion_source", flow.u_old)
+        a, L = mesh_velocity_forms(ufl.TrialFunction(Vw), ufl.TestFunction(Vw), source,
                                    fem.Constant(mesh, compat.ScalarType(penalty)), ds_surface)
         self.system = LinearSystem(a, L, self._slip_bcs(Vw))
         self._slanted = self._slanted_sides(Vw)
@@ -75,8 +77,27 @@ class MeshMotion:
                 sides.append((np.asarray(nodes, dtype=np.int64), np.asarray(b.normal, dtype=float)))
         return sides
 
-    def compute(self) -> None:
-        """Solve for w from the accepted velocity uⁿ on the current mesh."""
+    def compute(self, dt: float | None = None) -> None:
+        """Solve for w from the accepted velocity uⁿ on the current mesh. time.scheme bdf2
+        (once the flow has a history): from u* ≈ u(tⁿ + Δt/2) for a step ``dt``, and by the
+        explicit midpoint rule for the node trajectories ẋ = w(x, t) — w solved once on Ωⁿ,
+        the nodes moved by Δt/2·w, w solved again there with the same u*, the nodes put back
+        (the extension depends on the mesh through its normals and h: w on Ωⁿ alone would
+        leave a first-order error)."""
+        prepare = getattr(self.flow, "prepare_motion", None)
+        midpoint = bool(prepare(dt)) if prepare is not None else False
+        self._solve()
+        if midpoint:
+            x = self.mesh.geometry.x
+            start = x.copy()
+            x[:, :2] += 0.5 * dt * self.node_velocity()
+            try:
+                self._solve()
+            finally:
+                x[:] = start
+
+    def _solve(self) -> None:
+        """w on the current node positions, w·n = 0 made exact on slanted solid sides."""
         self.solver.set_operator(self.system.assemble_matrix())
         try:
             self.solver.solve(self.system.assemble_vector(), compat.petsc_vec(self.w))

@@ -17,7 +17,7 @@ class Domain(Protocol):
     def limit_step(self, disc, dt: float) -> float:
         """The largest step ≤ ``dt`` the domain allows from the accepted state (inf: none)."""
 
-    def recompute(self, disc) -> None:
+    def recompute(self, disc, dt: float | None = None) -> None:
         """Redo what ``limit_step`` prepared, for a retried (shorter) step."""
 
     def move(self, disc, dt: float) -> tuple[object, int]:

@@ -14,7 +14,7 @@ class FixedDomain:
     def limit_step(self, disc, dt: float) -> float:
         return math.inf
 
-    def recompute(self, disc) -> None:
+    def recompute(self, disc, dt: float | None = None) -> None:
         pass
 
     def move(self, disc, dt: float) -> tuple[None, int]:

@@ -38,12 +38,19 @@ class MovingDomain:
         self.solves = 0
 
     def limit_step(self, disc, dt: float) -> float:
-        """Solve for w from uⁿ; the largest safe step ≤ dt (``MeshMotion.max_step``)."""
-        self.recompute(disc)
-        return disc.motion.max_step(dt)
+        """Solve for w from uⁿ; the largest safe step ≤ dt (``MeshMotion.max_step``). With
+        time.scheme bdf2, w follows u* extrapolated to the middle of the step: when the limit
+        cuts the step, w is solved again for the shorter step and the limit checked again."""
+        self.recompute(disc, dt)
+        limit = disc.motion.max_step(dt)
+        if limit < dt and getattr(disc.flow, "scheme", "bdf1") == "bdf2":
+            self.recompute(disc, limit)
+            limit = disc.motion.max_step(limit)
+        return limit
 
-    def recompute(self, disc) -> None:
-        disc.motion.compute()
+    def recompute(self, disc, dt: float | None = None) -> None:
+        """Solve for w again (for a step ``dt``: the extrapolation of time.scheme bdf2)."""
+        disc.motion.compute(dt)
         self.solves += 1
 
     def move(self, disc, dt: float):

@@ -241,3 +241,18 @@ def test_with_overrides():
     assert new.time.dt == 2e-3 and cfg.time.dt == 1e-3
     with pytest.raises(ConfigError, match="time.dt = 0: must be > 0"):
         with_overrides(cfg, ["time.dt=0"])
+
+
+def test_time_scheme_and_tolerance(tmp_path):
+    """time.scheme bdf2 / time.tolerance: accepted together, refused with a one-line message
+    naming the key otherwise."""
+    cfg = load_config(None, ["time.scheme=bdf2", "time.tolerance=1e-3", "time.dt_max=0.02"])
+    assert cfg.time.scheme == "bdf2" and cfg.time.tolerance == 1e-3
+    assert load_config(None).time.scheme == "bdf1" and load_config(None).time.tolerance is None
+    assert "time.tolerance" in _error(tmp_path, overrides=["time.tolerance=1e-3"])
+    assert "time.tolerance" in _error(tmp_path, overrides=["time.scheme=bdf2", "time.tolerance=-1"])
+    assert "time.adaptive" in _error(tmp_path, overrides=[
+        "time.scheme=bdf2", "time.tolerance=1e-3", "time.adaptive=true"])
+    assert "time.scheme" in _error(tmp_path, overrides=[
+        "time.scheme=bdf2", "numerics.method=augmented_lagrangian"])
+    assert "time.scheme" in _error(tmp_path, overrides=["time.scheme=bdf3"])

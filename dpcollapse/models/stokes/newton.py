@@ -113,7 +113,8 @@ class NewtonFlow(RegularizedFlow):
         self.residual_terms = residual_terms(
             p.rheology, state=ufl.split(U), test=ufl.TestFunctions(self.W), rho=self._rho,
             dt=self.dt, body_force=f, epsilon=self.epsilon, epsilon_friction=eps_f,
-            u_old=self.u_old, mesh_velocity=self.mesh_velocity, n=ufl.FacetNormal(mesh),
+            u_old=self.previous_velocity_term, mesh_velocity=self.mesh_velocity,
+            n=ufl.FacetNormal(mesh),
             dx=dx, ds=ds,
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
             side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None,
@@ -182,7 +183,7 @@ class NewtonFlow(RegularizedFlow):
     def _newton_step(self, dt: float) -> StepReport:
         """Newton (after the optional Picard start and ε stages) for one step of size ``dt``."""
         s, ns = self.settings, self.newton
-        self.dt.value = dt
+        self.set_step(dt)
         start = self.iterate.x.array.copy()
         self._impose_dirichlet(self.iterate)
         iterations = 0

@@ -49,6 +49,7 @@ class PicardSettings:
     extrapolate: bool = False  # first iterate extrapolated linearly from the last two steps
     krylov_rtol: float = 1e-10  # linear_solver iterative: relative residual of FGMRES
     krylov_max_iterations: int = 500
+    time_scheme: str = "bdf1"  # time.scheme: bdf1 or bdf2 (solvers.bdf)
 
 
 def picard_settings(cfg) -> PicardSettings:
@@ -57,7 +58,7 @@ def picard_settings(cfg) -> PicardSettings:
     return PicardSettings(n.epsilon, n.epsilon_friction, n.nonlinear_rtol, n.nonlinear_atol,
                           n.max_iterations, n.linear_solver, n.anderson_depth,
                           n.reuse_factorization, n.quadrature_degree, n.extrapolate,
-                          n.krylov_rtol, n.krylov_max_iterations)
+                          n.krylov_rtol, n.krylov_max_iterations, cfg.time.scheme)
 
 
 class RegularizedFlow(StokesState):
@@ -82,6 +83,8 @@ class RegularizedFlow(StokesState):
         self._contraction = 0.0   # last measured contraction of the fixed point (extrapolate)
         self._history = None      # (xₙ₋₁, Δt_prev) of the last accepted step (extrapolate)
         self._pending_history = None
+        if settings.time_scheme == "bdf2":
+            self._use_bdf2()
         self._build_forms()
         self.solver = self._make_solver()
         weights = np.zeros(self._size_local)
@@ -115,7 +118,7 @@ class RegularizedFlow(StokesState):
         walls = [(f"{b.name}_friction", b.friction, b.tag) for b in p.boundaries if b.has_friction]
         self.terms, rhs = picard_terms(
             p.rheology, rho=rho, dt=self.dt, body_force=f, epsilon=eps, epsilon_friction=eps_f,
-            u_iter=u_k, p_iter=p_k, u_old=self.u_old, mesh_velocity=self.mesh_velocity,
+            u_iter=u_k, p_iter=p_k, u_old=self.previous_velocity_term, mesh_velocity=self.mesh_velocity,
             trial=(u, pr), test=(v, q), n=n, dx=dx, ds=ds,
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
             side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None,
@@ -162,7 +165,7 @@ class RegularizedFlow(StokesState):
     def solve_step(self, dt: float) -> StepReport:
         """Picard iterations for one time step of size ``dt`` on the current mesh."""
         s = self.settings
-        self.dt.value = dt
+        self.set_step(dt)
         self.update_surface_tension()
         start = self.iterate.x.array.copy()
         history = self._history

@@ -25,6 +25,7 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.geometry.free_surface import set_nodal_values, surface_tension_nodes
 from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.models.stokes.history import TimeHistory
 from dpcollapse.rheology.base import Rheology
 from dpcollapse.scenes.base import SOLID, Boundary, BoundaryKind
 from dpcollapse.solvers.assembly import LinearSystem, zero_dirichlet
@@ -110,6 +111,69 @@ class StokesState:
         self._owned_velocity = self.velocity_dofs[self.velocity_dofs < size_local]
         self._n_velocity = self.comm.allreduce(len(self._owned_velocity), op=MPI.SUM)
         self._size_local = size_local
+        self._step_dt = None   # Δt of the step being solved
+
+    # ------------------------------------------------------------------ time scheme
+    #: ``time.scheme``: bdf1 (the forms use uⁿ and the motion's w) or bdf2 (``solvers.bdf``)
+    scheme = "bdf1"
+
+    def _use_bdf2(self) -> None:
+        """Second-order time scheme: the history (``models.stokes.history``), the effective
+        old velocity û of the forms' "previous_velocity" and the motion's velocity u*."""
+        self.scheme = "bdf2"
+        self.history = TimeHistory(self._dof_positions())
+        self.u_start = fem.Function(self.V, name="u_start")     # û = (α₁uⁿ − α₂u^{n−1})/α₀
+        self.u_motion = fem.Function(self.V, name="u_motion")   # u* ≈ u(tⁿ + Δt/2)
+
+    def _dof_positions(self) -> np.ndarray:
+        """Positions of the mesh-velocity (P1) dofs on the current mesh, (n, 2)."""
+        return self.Vw.tabulate_dof_coordinates()[:, :2]
+
+    @property
+    def previous_velocity_term(self):
+        """The velocity of the forms' explicit half of the time derivative: uⁿ (BDF1) or û."""
+        return self.u_start if self.scheme == "bdf2" else self.u_old
+
+    @property
+    def motion_source(self):
+        """The velocity whose boundary motion the mesh follows: uⁿ (BDF1) or u*."""
+        return self.u_motion if self.scheme == "bdf2" else self.u_old
+
+    def prepare_motion(self, dt: float | None) -> bool:
+        """u* = uⁿ + (r/2)(uⁿ − u^{n−1}) for a step ``dt`` (BDF2 only; None: uⁿ); whether
+        the mesh motion is to be second order (BDF2 with a step and a history)."""
+        if self.scheme != "bdf2":
+            return False
+        u = self.u_old.x.array
+        self.u_motion.x.array[:] = u if dt is None else self.history.midpoint(u, dt)
+        return dt is not None and self.history.previous_step is not None
+
+    def set_step(self, dt: float) -> None:
+        """Make the forms those of a step ``dt`` on the current (moved) mesh: BDF1's Δt, or
+        BDF2 as BDF1 with Δt/α₀ and û, and the convection's mesh velocity
+        w^{n+1} = (α₀x^{n+1} − α₁xⁿ + α₂x^{n−1})/Δt once x^{n−1} is known."""
+        self._step_dt = dt
+        if self.scheme != "bdf2":
+            self.dt.value = dt
+            return
+        h = self.history
+        self.dt.value = dt / h.coefficients(dt)[0]
+        self.u_start.x.array[:] = h.effective_old(self.u_old.x.array, dt)
+        w = h.mesh_velocity(self._dof_positions(), dt)
+        if w is not None:
+            self.mesh_velocity.x.array[:] = w.ravel()
+
+    def local_error(self) -> float | None:
+        """RMS over the velocity dofs of the estimated local error of the last solved step
+        (BDF2 with two past steps) [m/s]; None otherwise."""
+        if self.scheme != "bdf2" or self._step_dt is None:
+            return None
+        new = self.solution.x.array[self.velocity_dofs]
+        error = self.history.local_error(new, self.u_old.x.array, self._step_dt)
+        if error is None:
+            return None
+        owned = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
+        return self.rms(error[:owned])
 
     # ------------------------------------------------------------------ conditions
     def _make_system(self, a, L):
@@ -187,7 +251,10 @@ class StokesState:
         return math.sqrt(total / max(self._n_velocity, 1))
 
     def accept_step(self) -> None:
-        """uⁿ ← u^{n+1}: the solution becomes the old state and the first iterate."""
+        """uⁿ ← u^{n+1}: the solution becomes the old state and the first iterate (BDF2: uⁿ,
+        Δt and the mesh enter the history)."""
+        if self.scheme == "bdf2":
+            self.history.push(self.u_old.x.array, self._step_dt, self._dof_positions())
         self.iterate.x.array[:] = self.solution.x.array
         self.u_old.x.array[:] = self.solution.x.array[self.velocity_dofs]
 
@@ -208,6 +275,9 @@ class StokesState:
         """Take the state of a flow on the same mesh with the same dofs (new facet tags)."""
         for name in ("solution", "iterate", "u_old", "mesh_velocity"):
             getattr(self, name).x.array[:] = getattr(other, name).x.array
+        if self.scheme == "bdf2" and other.scheme == "bdf2":
+            self.history.copy_from(other.history)
+            self._step_dt = other._step_dt
 
     def reset_iterate(self) -> None:
         """Start the next step's fixed point from the last accepted state."""

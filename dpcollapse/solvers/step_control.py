@@ -1,0 +1,61 @@
+"""Error-controlled step size: a PI controller (Gustafsson; Hairer & Wanner, II.4).
+
+With e_n the local error estimate of step n (``solvers.bdf``, RMS over the velocity dofs
+[m/s]), tol the tolerance and k = p + 1 = 3 for the second-order scheme, step n is
+accepted when e_n ≤ tol and the next step is
+
+    Δt_{n+1} = Δt_n · min(GROW, max(SHRINK, SAFETY (tol/e_n)^{α} (e_{n−1}/tol)^{β})),
+    α = 0.7/k,  β = 0.4/k,
+
+(without a previous estimate β = 0). A rejected step is retried with
+Δt_n · max(SHRINK, SAFETY (tol/e_n)^{1/k}). GROW = 2 keeps the step ratio below the
+zero-stability bound 1 + √2 of variable-step BDF2.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: Safety factor on the predicted optimal step.
+SAFETY = 0.9
+#: Largest and smallest ratio of successive steps.
+GROW = 2.0
+SHRINK = 0.2
+#: k = p + 1 for a second-order scheme.
+ORDER = 3
+
+
+@dataclass
+class StepController:
+    """PI step-size controller on a local error estimate; counts rejected steps."""
+
+    tolerance: float
+    previous_error: float | None = None
+    rejected: int = 0
+
+    def accept(self, error: float) -> bool:
+        """Whether a step of local error ``error`` is accepted (counts a rejection)."""
+        ok = error <= self.tolerance
+        if not ok:
+            self.rejected += 1
+        return ok
+
+    def next_step(self, dt: float, error: float | None) -> float:
+        """The next step after an accepted step ``dt`` of local error ``error`` (None: no
+        estimate yet, the step is kept)."""
+        if error is None:
+            return dt
+        error = max(error, 1e-12 * self.tolerance)
+        factor = SAFETY * (self.tolerance / error) ** (0.7 / ORDER)
+        if self.previous_error is not None:
+            factor *= (self.previous_error / self.tolerance) ** (0.4 / ORDER)
+        self.previous_error = error
+        return dt * min(GROW, max(SHRINK, factor))
+
+    def retry_step(self, dt: float, error: float) -> float:
+        """The step to retry after a rejection of step ``dt`` with local error ``error``."""
+        return dt * max(SHRINK, min(0.9, SAFETY * (self.tolerance / error) ** (1.0 / ORDER)))
+
+    def forget(self) -> None:
+        """Drop the previous estimate (the history was lost: remesh)."""
+        self.previous_error = None
