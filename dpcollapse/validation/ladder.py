@@ -480,6 +480,24 @@ def table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def k_table(rows: list[dict]) -> str:
+    """Markdown: every row's depth-averaged runout and deposit height with K = 1, Savage–Hutter's
+    K_act/pass and a constant Rankine K against the 2D ones."""
+    lines = ["| case | K_act / K_pass (K_R) | ΔL 2D [m] | ΔL SH: K = 1 / SH K / K_R [m] | Δ runout: K = 1 / SH K / K_R | "
+             "Δ H_f: K = 1 / SH K / K_R | SH K status | CPU SH K [s] |",
+             "| " + " | ".join(["---"] * 8) + " |"]
+    for r in rows:
+        if not isinstance(r.get("runout_diff_k"), float):
+            continue
+        lines.append(
+            f"| {r['case']} | {r['k_act']:.3f} / {r['k_pass']:.3f} ({r['k_rankine']:.3f}) | {r['runout_2d']:.4f} | "
+            f"{r['runout_sh']:.4f} / {r['runout_sh_k']:.4f} / {r['runout_sh_ka']:.4f} | "
+            f"{100 * r['runout_diff']:+.1f} / {100 * r['runout_diff_k']:+.1f} / {100 * r['runout_diff_ka']:+.1f} % | "
+            f"{100 * r['height_diff']:+.1f} / {100 * r['height_diff_k']:+.1f} / {100 * r['height_diff_ka']:+.1f} % | "
+            f"{str(r['status_sh_k'])[:40]} | {r['cpu_sh_k']:.2f} |")
+    return "\n".join(lines)
+
+
 # ----------------------------------------------------------------------------- shallow limit
 #: The depth-averaged variants of a row: (label, runout-difference column, height column).
 VARIANTS = (("K = 1", "runout_diff", "height_diff"), ("SH K", "runout_diff_k", "height_diff_k"),
@@ -515,13 +533,13 @@ def threshold_table(rows: list[dict]) -> str:
     """Markdown: per family (bed and law) and depth-averaged variant, the ε below which the
     depth-averaged runout is within 5 % and 10 % of the 2D one."""
     lines = ["| family | depth-averaged K | runout within 5 % for ε | within 10 % for ε | "
-             "Δ runout at ε = " + ", ".join(f"{e:g}" for e in sorted(SHALLOW_EPS)) + " |",
+             "Δ runout (ε: SH vs 2D) |",
              "| --- | --- | --- | --- | --- |"]
     for group, members in _groups(rows).items():
         members = sorted(members, key=lambda r: r["param"])
         for label, col, _ in VARIANTS:
-            diffs = ", ".join(f"{100 * r[col]:+.0f} %" if isinstance(r.get(col), float) else "—"
-                              for r in members)
+            diffs = ", ".join(f"{r['param']:g}: {100 * r[col]:+.0f} %" if isinstance(r.get(col), float)
+                              else f"{r['param']:g}: —" for r in members)
             lines.append(f"| {group} | {label} | {eps_threshold(members, col, 0.05)} | "
                          f"{eps_threshold(members, col, 0.10)} | {diffs} |")
     return "\n".join(lines)
@@ -543,6 +561,15 @@ def shallow_table(rows: list[dict]) -> str:
             f"{100 * r['height_diff_k']:+.1f} / {100 * r['height_diff_ka']:+.1f} % | "
             f"{r['cpu_2d_s']:.1f} / {r['cpu_sh_s']:.2f} |")
     return "\n".join(lines)
+
+
+def _eps_axis(ax) -> None:
+    """A log ε axis with the family's ε as ticks."""
+    ax.set_xscale("log")
+    ax.set_xticks(sorted(SHALLOW_EPS))
+    ax.set_xticklabels([f"{e:g}" for e in sorted(SHALLOW_EPS)])
+    ax.minorticks_off()
+    ax.set_xlabel("aspect ratio ε = H/L0")
 
 
 def plot_shallow(rows: list[dict], series: dict, path: Path) -> None:
@@ -569,11 +596,7 @@ def plot_shallow(rows: list[dict], series: dict, path: Path) -> None:
         ax.axhspan(-10, 10, color="0.92", zorder=0)
         ax.axhspan(-5, 5, color="0.82", zorder=0)
         ax.axhline(0, color="k", lw=0.5)
-        ax.set_xscale("log")
-        ax.set_xticks(sorted(SHALLOW_EPS))
-        ax.set_xticklabels([f"{e:g}" for e in sorted(SHALLOW_EPS)])
-        ax.minorticks_off()
-        ax.set_xlabel("aspect ratio ε = H/L0")
+        _eps_axis(ax)
         ax.set_ylabel("[%]")
         ax.set_title(title + " (bands ±5 %, ±10 %)", fontsize=9)
         ax.legend(fontsize=6, ncol=2)
@@ -587,12 +610,8 @@ def plot_shallow(rows: list[dict], series: dict, path: Path) -> None:
                 label=f"{group} SH K=1")
         ax.plot(eps, [r["runout_sh_k"] / SHALLOW_H for r in members], "s:", color=colors[i % len(colors)],
                 label=f"{group} SH K")
-    ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xticks(sorted(SHALLOW_EPS))
-    ax.set_xticklabels([f"{e:g}" for e in sorted(SHALLOW_EPS)])
-    ax.minorticks_off()
-    ax.set_xlabel("aspect ratio ε = H/L0")
+    _eps_axis(ax)
     ax.set_ylabel("runout ΔL / H")
     ax.set_title(f"runout (H = {SHALLOW_H:g} m, L0 = H/ε)", fontsize=9)
     ax.legend(fontsize=6, ncol=2)
@@ -693,6 +712,12 @@ def plot(rows: list[dict], series: dict, path: Path) -> None:
             label="runout ΔL, column (bottom axis: a)")
     ax.plot([r["param"] for r in col], [100 * r["height_diff"] for r in col], "s-", color=colors[1],
             label="H_f, column (bottom axis: a)")
+    for col_name, style, label in (("runout_diff_k", "o-.", "runout ΔL, column, SH K = 1.455"),
+                                   ("runout_diff_ka", "o-.", "runout ΔL, column, K = K_Rankine 0.398")):
+        pts = [(r["param"], 100 * r[col_name]) for r in col if isinstance(r.get(col_name), float)]
+        if pts:
+            ax.plot(*zip(*pts), style, color=colors[6] if col_name.endswith("_k") else colors[7],
+                    label=label)
     mui = sorted((r for r in rows if r["group"] == "mu_i"), key=lambda r: r["param"])
     ax.plot([r["param"] for r in mui], [100 * r["runout_diff"] for r in mui], "o:", color=colors[4],
             label="runout ΔL, column μ(I) (bottom axis: a)")
@@ -826,6 +851,7 @@ def run(quick=False, out="docs", work="runs/ladder", only=None, redo=False, plot
         return 0
     plot(rows, read_series(out / "ladder_series.csv"), out / "ladder.png")
     echo(table(rows))
+    echo(k_table(rows))
     return 0
 
 
