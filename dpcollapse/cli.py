@@ -455,14 +455,16 @@ def stability(scene: str, quick: bool, config: Path | None, out: Path | None, me
 @click.option("--plot-only", is_flag=True, help="Only redraw the chart and table from the CSVs.")
 @click.option("--sh-resolution", "sh_case", default=None, metavar="CASE",
               help="Only the Savage-Hutter side of CASE at dx = 4, 2, 1, 0.5 mm.")
+@click.option("--shallow", is_flag=True,
+              help="The shallow limit: the aspect-ratio family (ladder_shallow.csv/.png).")
 def ladder(quick: bool, out: Path, work: Path, only: tuple[str, ...], redo: bool, plot_only: bool,
-           sh_case: str | None) -> int:
+           sh_case: str | None, shallow: bool) -> int:
     """The model ladder: each scene with the 2D model and with Savage-Hutter, runout,
     deposit height and cost side by side (docs/ladder.md)."""
     _setup_logging(quiet=True)
     echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
     return _lazy("dpcollapse.validation.ladder", "run")(
-        quick, out, work, list(only) or None, redo, plot_only, sh_case, echo=echo)
+        quick, out, work, list(only) or None, redo, plot_only, sh_case, echo=echo, shallow=shallow)
 
 
 @cli.command()

@@ -512,6 +512,11 @@ class SavageHutterModel(_Section):
         "= the material's (drucker_prager: Coulomb mu_s; mu_i: mu(I) with the depth-averaged I); "
         "auto = bed if boundary.bed_condition = coulomb and the bed angle is below "
         "material.friction_angle, else rheology")
+    earth_pressure: Literal["hydrostatic", "savage_hutter"] = _f(
+        "hydrostatic", "", "Longitudinal stress K g cos(theta) h^2/2: hydrostatic (K = 1) or "
+        "savage_hutter (K_act/pass = 2 sec^2(phi) (1 -/+ sqrt(1 - cos^2(phi) sec^2(delta))) - 1, "
+        "phi = material.friction_angle, delta the basal friction angle; active where du/dx >= 0; "
+        "docs/savage_hutter.md)")
     shape_factor: Number = _f(
         1.0, "", "Shape factor alpha of the momentum flux alpha h u^2: 1 (plug profile) or 1.25 "
         "(Bagnold profile)", ge=1, le=1.5)
@@ -737,6 +742,14 @@ class Config(_Section):
                               "model.name = savage_hutter")
         m = self.model
         x_max = m.x_max if m.x_max is not None else self.geometry.base_length + 20 * self.geometry.height
+        b, phi = self.boundary, self.material.friction_angle
+        if (m.earth_pressure == "savage_hutter" and m.basal_friction == "bed"
+                and b.bed_friction_angle > phi):
+            # auto and rheology give delta <= phi (auto takes the bed only below phi)
+            raise ConfigError(f"boundary.bed_friction_angle = {_fmt(b.bed_friction_angle)}: must be "
+                              f"<= material.friction_angle = {_fmt(phi)} (deg) with "
+                              "model.earth_pressure = savage_hutter (K_act/pass is imaginary for "
+                              "delta > phi)")
         if m.x_min > 0 or x_max < self.geometry.base_length:
             raise ConfigError(f"model.x_min = {_fmt(m.x_min)}, model.x_max = {_fmt(m.x_max)}: "
                               f"the 1D domain must contain the mass [0, {self.geometry.base_length:g}] m")

@@ -77,6 +77,11 @@ COLUMNS = [
     "mass_error_sh",
     "runout_diff", "height_diff", "l1_diff_m2", "l1_rel", "cost_ratio", "cost_ratio_cpu", "within_5pct",
     "l1_sh_exact_m2", "l1_2d_exact_m2", "front_exact",
+    # the depth-averaged rung again with Savage–Hutter's K_act/pass ("k") and with a constant
+    # Rankine active K = (1 − sin φ)/(1 + sin φ) ("ka", the ladder's K hypothesis)
+    "k_act", "k_pass", "status_sh_k", "cpu_sh_k", "runout_sh_k", "height_sh_k", "runout_diff_k",
+    "height_diff_k", "k_rankine", "status_sh_ka", "runout_sh_ka", "height_sh_ka",
+    "runout_diff_ka", "height_diff_ka",
 ]
 
 
@@ -134,6 +139,41 @@ def full_plan() -> list[Case]:
                       ("geometry.mesh_size=0.005",)))
     cases.append(Case("column_a2_mesh2cm", "resolution", 2.0, "configs/column.yaml",
                       ("geometry.mesh_size=0.02",)))
+    return cases
+
+
+#: The shallow limit (issue 29): columns of thickness H = SHALLOW_H and half-length L0 = H/ε
+#: against the wall at x = 0, ε = SHALLOW_EPS, on a flat bed and on SHALLOW_SLOPES° slopes, bed
+#: friction SHALLOW_BED_FRICTION° (< φ = 25.5°: the layer slides on the bed in both rungs;
+#: tan 20° − tan θ = 0.15 at 12°, 0.039 at 18°: the mass flows, then stops — at 12° only its
+#: front when it is thin, at 18° the whole of it). 2D cells H/5: five across the initial
+#: thickness. Coulomb/Drucker–Prager (configs/column.yaml's material), and μ(I) (MU_I: seed
+#: 004's fit, bed at μ_s). The Coulomb model has no length scale of its own, so a family of
+#: fixed H and varying L0 is a family of fixed L0 and varying H scaled.
+SHALLOW_H = 0.03
+SHALLOW_EPS = (0.5, 0.3, 0.2, 0.1, 0.05)
+SHALLOW_SLOPES = (12.0, 18.0)
+SHALLOW_BED_FRICTION = 20.0
+SHALLOW_END_TIME = 5.0
+
+
+def shallow_plan(laws=("dp", "mui")) -> list[Case]:
+    """The ε family on the flat bed and on the slope, per law (``dp``: Drucker–Prager with the
+    Coulomb bed at SHALLOW_BED_FRICTION; ``mui``: μ(I) with the bed at μ_s)."""
+    cases = []
+    for law in laws:
+        for bed, theta in [("flat", 0.0)] + [(f"slope{t:g}", t) for t in SHALLOW_SLOPES]:
+            if law == "mui" and theta >= 17.74:    # tan θ ≥ μ_s: a μ(I) layer does not stop
+                continue
+            for eps in SHALLOW_EPS:
+                l0 = round(SHALLOW_H / eps, 6)
+                over = (f"geometry.height={SHALLOW_H:g}", f"geometry.base_length={l0:g}",
+                        f"geometry.bed_angle={theta:g}", f"geometry.mesh_size={SHALLOW_H / 5:g}",
+                        f"time.end_time={SHALLOW_END_TIME:g}")
+                over += (MU_I if law == "mui" else (f"boundary.bed_friction_angle={SHALLOW_BED_FRICTION:g}",))
+                suffix = "_mui" if law == "mui" else ""
+                cases.append(Case(f"shallow_{bed}{suffix}_eps{eps:g}", f"shallow_{bed}{suffix}", eps,
+                                  "configs/column.yaml", over, sh_x_max=l0 + 40 * SHALLOW_H + 0.1))
     return cases
 
 
@@ -226,6 +266,49 @@ def run_sh(model: SavageHutter, grid: Grid, poly, end_time: float) -> Rung:
                 extra={"mass_error": float(mass_error), "outflow": float(s["outflow"][-1])})
 
 
+def k_variants(cfg: Config, case: Case, dx: float, end_time: float, runout_2d: float,
+               height_2d: float) -> tuple[dict, list[tuple]]:
+    """The depth-averaged rung with Savage–Hutter's K (``model.earth_pressure: savage_hutter``)
+    and with a constant Rankine active K (the K hypothesis), compared with the 2D runout and
+    deposit height: (CSV columns, profile series). A run whose mass reaches the end of the
+    domain is run again on a domain twice as long (at most twice)."""
+    import dataclasses
+
+    from dpcollapse.models.savage_hutter import EarthPressure
+    from dpcollapse.models.savage_hutter.earth_pressure import savage_hutter_coefficients
+
+    geo = cfg.geometry
+    x_max = case.sh_x_max if case.sh_x_max is not None else geo.base_length + 6.0 * geo.height + 0.2
+    k_rankine = savage_hutter_coefficients(cfg.material.friction_angle, 0.0)[0]
+    l0 = geo.base_length
+    cols = {"k_rankine": k_rankine}
+    series = []
+    for tag in ("k", "ka"):
+        for longer in (1, 2, 4):
+            sh_cfg = with_overrides(sh_config(cfg, dx, longer * x_max), ["model.earth_pressure=savage_hutter"])
+            setup = setup_from_config(sh_cfg)
+            ep = setup.model.earth_pressure
+            earth = ep if tag == "k" else EarthPressure(k_rankine, k_rankine)
+            sh = run_sh(dataclasses.replace(setup.model, earth_pressure=earth), setup.grid,
+                        setup.vertices, end_time)
+            reached = sh.h[-1] > 1e-6 or sh.extra["outflow"] > 1e-9
+            if not reached:
+                break
+        cols.update({"k_act": ep.k_active, "k_pass": ep.k_passive})
+        runout = front_position(sh.h, setup.grid, FRONT_THRESHOLD) - l0
+        height = float(sh.h.max())
+        status = sh.status
+        if reached:
+            status += f" (reached x_max = {setup.grid.x_max:g} m: not comparable)"
+        cols.update({f"status_sh_{tag}": status, f"runout_sh_{tag}": runout,
+                     f"height_sh_{tag}": height, f"runout_diff_{tag}": _rel(runout, runout_2d),
+                     f"height_diff_{tag}": _rel(height, height_2d)})
+        if tag == "k":
+            cols["cpu_sh_k"] = sh.cpu
+        series += [(case.name, f"sh_{tag}", "profile", x, h) for x, h in zip(setup.grid.centers, sh.h)]
+    return cols, series
+
+
 def _rel(a: float, b: float) -> float:
     return (a - b) / abs(b) if b else math.nan
 
@@ -271,7 +354,9 @@ def compare(case: Case, work: Path, dx: float) -> tuple[dict, list[tuple]]:
     series += [(case.name, "sh", "profile", x, h) for x, h in zip(grid.centers, sh.h)]
     if case.group == "dam_break":
         row.update(_against_mangeney(cfg, grid, two, sh, series, case.name))
-    return row, series
+    cols, more = k_variants(cfg, case, dx, sh_end, runout_2d, height_2d)
+    row.update(cols)
+    return row, series + more
 
 
 def _against_mangeney(cfg: Config, grid: Grid, two: Rung, sh: Rung, series: list, name: str) -> dict:
@@ -333,15 +418,15 @@ def read_series(path: Path) -> dict:
     return {k: np.asarray(v) for k, v in out.items()}
 
 
-def write_results(out: Path, rows: list[dict], series: list[tuple]) -> None:
-    """Rewrite ladder.csv and ladder_series.csv whole (rows in plan order)."""
+def write_results(out: Path, rows: list[dict], series: list[tuple], stem: str = "ladder") -> None:
+    """Rewrite STEM.csv and STEM_series.csv whole (rows in plan order)."""
     out.mkdir(parents=True, exist_ok=True)
-    with (out / "ladder.csv").open("w", newline="") as fh:
+    with (out / f"{stem}.csv").open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=COLUMNS)
         w.writeheader()
         for r in rows:
             w.writerow({k: _fmt(r.get(k, "")) for k in COLUMNS})
-    with (out / "ladder_series.csv").open("w", newline="") as fh:
+    with (out / f"{stem}_series.csv").open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(SERIES_COLUMNS)
         w.writerows((c, rung, kind, f"{x:.6g}", f"{y:.6g}") for c, rung, kind, x, y in _trim(series))
@@ -393,6 +478,161 @@ def table(rows: list[dict]) -> str:
             f"{r['l1_diff_m2']:.2e} ({r['l1_rel']:.2f}) | {r['cpu_2d_s']:.1f} / {r['cpu_sh_s']:.2f} | "
             f"{r['cost_ratio_cpu']:.0f} ({r['cost_ratio']:.0f}) | {'yes' if str(r['within_5pct']) == 'True' else 'no'} |")
     return "\n".join(lines)
+
+
+def k_table(rows: list[dict]) -> str:
+    """Markdown: every row's depth-averaged runout and deposit height with K = 1, Savage–Hutter's
+    K_act/pass and a constant Rankine K against the 2D ones."""
+    lines = ["| case | K_act / K_pass (K_R) | ΔL 2D [m] | ΔL SH: K = 1 / SH K / K_R [m] | Δ runout: K = 1 / SH K / K_R | "
+             "Δ H_f: K = 1 / SH K / K_R | SH K status | CPU SH K [s] |",
+             "| " + " | ".join(["---"] * 8) + " |"]
+    for r in rows:
+        if not isinstance(r.get("runout_diff_k"), float):
+            continue
+        lines.append(
+            f"| {r['case']} | {r['k_act']:.3f} / {r['k_pass']:.3f} ({r['k_rankine']:.3f}) | {r['runout_2d']:.4f} | "
+            f"{r['runout_sh']:.4f} / {r['runout_sh_k']:.4f} / {r['runout_sh_ka']:.4f} | "
+            f"{100 * r['runout_diff']:+.1f} / {100 * r['runout_diff_k']:+.1f} / {100 * r['runout_diff_ka']:+.1f} % | "
+            f"{100 * r['height_diff']:+.1f} / {100 * r['height_diff_k']:+.1f} / {100 * r['height_diff_ka']:+.1f} % | "
+            f"{str(r['status_sh_k'])[:40]} | {r['cpu_sh_k']:.2f} |")
+    return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- shallow limit
+#: The depth-averaged variants of a row: (label, runout-difference column, height column).
+VARIANTS = (("K = 1", "runout_diff", "height_diff"), ("SH K", "runout_diff_k", "height_diff_k"),
+            ("K = K_Rankine", "runout_diff_ka", "height_diff_ka"))
+TOLERANCES = (0.05, 0.10)
+
+
+def eps_threshold(rows: list[dict], column: str, tol: float) -> str:
+    """The largest ε of the family below which (at every ε' ≤ ε measured) |column| ≤ tol:
+    "all (≤ 0.5)" when every ε passes, "none" (with the smallest ε's difference) when the
+    thinnest fails. Rows whose 2D run failed break the chain."""
+    rows = sorted(rows, key=lambda r: r["param"])
+    best = None
+    for r in rows:
+        v = r.get(column)
+        if not isinstance(v, float) or math.isnan(v) or abs(v) > tol or "failed" in str(r["status_2d"]):
+            break
+        best = r["param"]
+    if best is None:
+        v = rows[0].get(column) if rows else math.nan
+        return f"none ({100 * v:+.0f} % at ε = {rows[0]['param']:g})" if rows else "—"
+    return f"all (≤ {best:g})" if best == rows[-1]["param"] else f"≤ {best:g}"
+
+
+def _groups(rows: list[dict]) -> dict:
+    out: dict = {}
+    for r in rows:
+        out.setdefault(r["group"], []).append(r)
+    return out
+
+
+def threshold_table(rows: list[dict]) -> str:
+    """Markdown: per family (bed and law) and depth-averaged variant, the ε below which the
+    depth-averaged runout is within 5 % and 10 % of the 2D one."""
+    lines = ["| family | depth-averaged K | runout within 5 % for ε | within 10 % for ε | "
+             "Δ runout (ε: SH vs 2D) |",
+             "| --- | --- | --- | --- | --- |"]
+    for group, members in _groups(rows).items():
+        members = sorted(members, key=lambda r: r["param"])
+        for label, col, _ in VARIANTS:
+            diffs = ", ".join(f"{r['param']:g}: {100 * r[col]:+.0f} %" if isinstance(r.get(col), float)
+                              else f"{r['param']:g}: —" for r in members)
+            lines.append(f"| {group} | {label} | {eps_threshold(members, col, 0.05)} | "
+                         f"{eps_threshold(members, col, 0.10)} | {diffs} |")
+    return "\n".join(lines)
+
+
+def shallow_table(rows: list[dict]) -> str:
+    """Markdown: every ε row — runouts, deposit heights, differences with K = 1, Savage–Hutter
+    K and Rankine K, CPU times."""
+    lines = ["| case | ε | 2D cells across H | 2D status | ΔL 2D [m] | ΔL SH K=1 / SH K / K_R [m] | "
+             "Δ runout K=1 / SH K / K_R | H_f 2D [m] | Δ H_f K=1 / SH K / K_R | CPU 2D / SH [s] |",
+             "| " + " | ".join(["---"] * 10) + " |"]
+    for r in rows:
+        cells = SHALLOW_H / r["mesh_size_2d"] if "shallow" in str(r["group"]) else math.nan
+        lines.append(
+            f"| {r['case']} | {r['param']:g} | {cells:.0f} | {str(r['status_2d'])[:30]} | "
+            f"{r['runout_2d']:.4f} | {r['runout_sh']:.4f} / {r['runout_sh_k']:.4f} / "
+            f"{r['runout_sh_ka']:.4f} | {100 * r['runout_diff']:+.1f} / {100 * r['runout_diff_k']:+.1f} / "
+            f"{100 * r['runout_diff_ka']:+.1f} % | {r['height_2d']:.4f} | {100 * r['height_diff']:+.1f} / "
+            f"{100 * r['height_diff_k']:+.1f} / {100 * r['height_diff_ka']:+.1f} % | "
+            f"{r['cpu_2d_s']:.1f} / {r['cpu_sh_s']:.2f} |")
+    return "\n".join(lines)
+
+
+def _eps_axis(ax) -> None:
+    """A log ε axis with the family's ε as ticks."""
+    ax.set_xscale("log")
+    ax.set_xticks(sorted(SHALLOW_EPS))
+    ax.set_xticklabels([f"{e:g}" for e in sorted(SHALLOW_EPS)])
+    ax.minorticks_off()
+    ax.set_xlabel("aspect ratio ε = H/L0")
+
+
+def plot_shallow(rows: list[dict], series: dict, path: Path) -> None:
+    """ladder_shallow.png: runout and deposit-height differences against ε per family and K
+    (grey bands ±5 %, ±10 %), ΔL/H against ε, and the thinnest deposits."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups = _groups(rows)
+    fig, axes = plt.subplots(2, 2, figsize=(13, 9))
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    styles = {"K = 1": "o-", "SH K": "s--", "K = K_Rankine": "^:"}
+    for ax, which, title in ((axes[0, 0], 1, "runout: (SH − 2D)/2D"),
+                             (axes[0, 1], 2, "deposit height H_f: (SH − 2D)/2D")):
+        for i, (group, members) in enumerate(groups.items()):
+            members = sorted(members, key=lambda r: r["param"])
+            for variant in VARIANTS:
+                vals = [100 * r[variant[which]] if isinstance(r.get(variant[which]), float) else np.nan
+                        for r in members]
+                ax.plot([r["param"] for r in members], vals, styles[variant[0]],
+                        color=colors[i % len(colors)], label=f"{group}, {variant[0]}")
+        ax.axhspan(-10, 10, color="0.92", zorder=0)
+        ax.axhspan(-5, 5, color="0.82", zorder=0)
+        ax.axhline(0, color="k", lw=0.5)
+        _eps_axis(ax)
+        ax.set_ylabel("[%]")
+        ax.set_title(title + " (bands ±5 %, ±10 %)", fontsize=9)
+        ax.legend(fontsize=6, ncol=2)
+    ax = axes[1, 0]
+    for i, (group, members) in enumerate(groups.items()):
+        members = sorted(members, key=lambda r: r["param"])
+        eps = [r["param"] for r in members]
+        ax.plot(eps, [r["runout_2d"] / SHALLOW_H for r in members], "o-", color=colors[i % len(colors)],
+                label=f"{group} 2D")
+        ax.plot(eps, [r["runout_sh"] / SHALLOW_H for r in members], "o--", color=colors[i % len(colors)],
+                label=f"{group} SH K=1")
+        ax.plot(eps, [r["runout_sh_k"] / SHALLOW_H for r in members], "s:", color=colors[i % len(colors)],
+                label=f"{group} SH K")
+    ax.set_yscale("log")
+    _eps_axis(ax)
+    ax.set_ylabel("runout ΔL / H")
+    ax.set_title(f"runout (H = {SHALLOW_H:g} m, L0 = H/ε)", fontsize=9)
+    ax.legend(fontsize=6, ncol=2)
+    ax = axes[1, 1]
+    thinnest = [min(m, key=lambda r: r["param"]) for m in groups.values()]
+    for i, r in enumerate(thinnest):
+        for rung, style, label in (("2d", "-", "2D"), ("sh", "--", "SH K=1"), ("sh_k", ":", "SH K")):
+            s = series.get((r["case"], rung, "profile"))
+            if s is not None:
+                ax.plot(s[:, 0] - _l0(r), s[:, 1], style, color=colors[i % len(colors)],
+                        label=f"{r['case']} {label}")
+    ax.set_xlabel("x − L0 [m]")
+    ax.set_ylabel("final thickness h [m]")
+    ax.set_xlim(-0.3, None)
+    ax.set_title("deposits of the thinnest masses near the front", fontsize=9)
+    ax.legend(fontsize=6)
+    for ax in axes.flat:
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 # ----------------------------------------------------------------------------- chart
@@ -472,6 +712,12 @@ def plot(rows: list[dict], series: dict, path: Path) -> None:
             label="runout ΔL, column (bottom axis: a)")
     ax.plot([r["param"] for r in col], [100 * r["height_diff"] for r in col], "s-", color=colors[1],
             label="H_f, column (bottom axis: a)")
+    for col_name, style, label in (("runout_diff_k", "o-.", "runout ΔL, column, SH K = 1.455"),
+                                   ("runout_diff_ka", "o-.", "runout ΔL, column, K = K_Rankine 0.398")):
+        pts = [(r["param"], 100 * r[col_name]) for r in col if isinstance(r.get(col_name), float)]
+        if pts:
+            ax.plot(*zip(*pts), style, color=colors[6] if col_name.endswith("_k") else colors[7],
+                    label=label)
     mui = sorted((r for r in rows if r["group"] == "mu_i"), key=lambda r: r["param"])
     ax.plot([r["param"] for r in mui], [100 * r["runout_diff"] for r in mui], "o:", color=colors[4],
             label="runout ΔL, column μ(I) (bottom axis: a)")
@@ -537,17 +783,20 @@ def sh_resolution(case: Case, end_time: float | None = None) -> list[dict]:
 
 # ----------------------------------------------------------------------------- main
 def run(quick=False, out="docs", work="runs/ladder", only=None, redo=False, plot_only=False,
-        sh_case=None, echo=print) -> int:
+        sh_case=None, echo=print, shallow=False) -> int:
     """Run the plan (skipping cases already in the CSV), write the CSVs, the chart, the table.
 
     ``sh_case``: only the Savage–Hutter side of that case at Δx = 4, 2, 1, 0.5 mm.
+    ``shallow``: the ε family (``shallow_plan``) into OUT/ladder_shallow.csv, …_series.csv and
+    ladder_shallow.png, and the ε-threshold table.
+    A case in the CSV without the K columns gets them (the depth-averaged runs only).
     An unknown case name is a :class:`~dpcollapse.errors.ConfigError` (one line, exit 2)."""
-    known = [c.name for c in full_plan() + quick_plan()]
+    known = [c.name for c in full_plan() + quick_plan() + shallow_plan()]
     for name in ([sh_case] if sh_case else []) + list(only or []):
         if name not in known:
             raise ConfigError(f"case {name!r}: must be one of {', '.join(dict.fromkeys(known))}")
     if sh_case:
-        case = next(c for c in full_plan() + quick_plan() if c.name == sh_case)
+        case = next(c for c in full_plan() + quick_plan() + shallow_plan() if c.name == sh_case)
         end = 0.5 if case.group == "dam_break" else None
         echo("dx [m]   status   t_end [s]  steps  wall [s]  runout [m]  H_f [m]")
         for r in sh_resolution(case, end):
@@ -555,23 +804,35 @@ def run(quick=False, out="docs", work="runs/ladder", only=None, redo=False, plot
                  f"{r['runout']:10.4f} {r['height']:8.4f}")
         return 0
     out, work = Path(out), Path(work)
-    plan = quick_plan() if quick else full_plan()
+    plan = shallow_plan() if shallow else quick_plan() if quick else full_plan()
+    stem = "ladder_shallow" if shallow else "ladder"
     dx = SH_DX_QUICK if quick else SH_DX
-    done = {r["case"]: r for r in read_rows(out / "ladder.csv")}
+    done = {r["case"]: r for r in read_rows(out / f"{stem}.csv")}
     curves: dict = {}
-    for (c, rung, kind), arr in read_series(out / "ladder_series.csv").items():
+    for (c, rung, kind), arr in read_series(out / f"{stem}_series.csv").items():
         curves.setdefault(c, []).extend((c, rung, kind, x, y) for x, y in arr)
 
     def save():
         names = [c.name for c in plan if c.name in done]
         names += [n for n in done if n not in names]        # other plans' cases are kept
-        write_results(out, [done[n] for n in names], [s for n in names for s in curves.get(n, [])])
+        write_results(out, [done[n] for n in names], [s for n in names for s in curves.get(n, [])],
+                      stem)
 
     for case in plan:
         old = done.get(case.name)
         fresh = old is not None and _same_case(old, case, dx)
         wanted = not only or case.name in only
-        if plot_only or not wanted or (fresh and not redo):
+        if plot_only or not wanted:
+            continue
+        if fresh and not redo and not isinstance(old.get("runout_diff_k"), float):
+            echo(f"{case.name}: Savage–Hutter K runs only (2D from the CSV)")
+            sh_end = old["t_end_2d"] if old["status_2d"] == "end_time" else SH_MAX_TIME
+            cols, more = k_variants(case.load(), case, dx, sh_end, old["runout_2d"], old["height_2d"])
+            old.update(cols)
+            curves[case.name] = [r for r in curves.get(case.name, []) if not r[1].startswith("sh_k")] + more
+            save()
+            continue
+        if fresh and not redo:
             continue
         echo(f"{case.name}: running ({case.config} {' '.join(case.overrides)})")
         row, series = compare(case, work, dx)
@@ -581,9 +842,16 @@ def run(quick=False, out="docs", work="runs/ladder", only=None, redo=False, plot
              f"{row['wall_sh_s']:.2f} s: runout {row['runout_2d']:.4f} / {row['runout_sh']:.4f} m, "
              f"H_f {row['height_2d']:.4f} / {row['height_sh']:.4f} m")
     save()
-    rows = read_rows(out / "ladder.csv")
+    rows = read_rows(out / f"{stem}.csv")
+    if shallow:
+        rows = [r for r in rows if str(r["group"]).startswith("shallow")]
+        plot_shallow(rows, read_series(out / f"{stem}_series.csv"), out / f"{stem}.png")
+        echo(threshold_table(rows))
+        echo(shallow_table(rows))
+        return 0
     plot(rows, read_series(out / "ladder_series.csv"), out / "ladder.png")
     echo(table(rows))
+    echo(k_table(rows))
     return 0
 
 
@@ -599,10 +867,12 @@ def main(argv=None) -> int:
     parser.add_argument("--plot-only", action="store_true", help="only redraw from the CSVs")
     parser.add_argument("--sh-resolution", metavar="CASE",
                         help="only the Savage–Hutter side of CASE at Δx = 4, 2, 1, 0.5 mm")
+    parser.add_argument("--shallow", action="store_true",
+                        help="the shallow limit: the ε family, ladder_shallow.csv/.png")
     args = parser.parse_args(argv)
     try:
         return run(args.quick, args.out, args.work, args.only, args.redo, args.plot_only,
-                   args.sh_resolution, echo=lambda m: print(m, flush=True))
+                   args.sh_resolution, echo=lambda m: print(m, flush=True), shallow=args.shallow)
     except ConfigError as exc:
         print(f"ladder: error: {exc}", file=sys.stderr)
         return exc.exit_code

@@ -19,7 +19,7 @@ def test_ladder_quick(tmp_path):
         rows = list(reader)
     assert [r["case"] for r in rows] == ["column_a2_quick", "column_a2_mui_quick"]
     text_keys = ("case", "group", "config", "overrides", "status_2d", "status_sh", "within_5pct",
-                 "sh_friction")
+                 "sh_friction", "status_sh_k", "status_sh_ka")
     r, mui = ({k: (v if k in text_keys else float(v)) for k, v in row.items()} for row in rows)
     assert r["status_2d"] == "end_time" and r["status_sh"] == "end_time"
     assert math.isclose(r["t_end_2d"], 0.1) and math.isclose(r["t_end_sh"], 0.1)
@@ -35,6 +35,13 @@ def test_ladder_quick(tmp_path):
     # the 2D column is still falling: the SH front is ahead (measured 0.167 m against 0.032 m)
     assert r["runout_sh"] > 2 * r["runout_2d"] > 0
     assert (out / "ladder.png").stat().st_size > 10_000
+    # the same depth-averaged run with Savage–Hutter's K (δ = φ = 25.5°: K = 1 + 2 tan²φ = 1.455
+    # > 1) spreads faster, with Rankine's K_a = 0.398 slower than with K = 1
+    assert math.isclose(r["k_act"], 1.455011, rel_tol=1e-5) and r["k_act"] == r["k_pass"]
+    assert math.isclose(r["k_rankine"], 0.398102, rel_tol=1e-5)
+    assert r["runout_sh_k"] > r["runout_sh"] > r["runout_sh_ka"] > 0
+    assert math.isclose(r["runout_diff_k"], (r["runout_sh_k"] - r["runout_2d"]) / r["runout_2d"],
+                        rel_tol=1e-5)
     text = ladder.table(ladder.read_rows(out / "ladder.csv"))
     assert text.count("\n") == 3 and "column_a2_quick" in text
 

@@ -73,3 +73,27 @@ def test_column_fills_its_cells():
     inside = s.grid.edges[1:] <= cfg.geometry.base_length + 1e-12
     assert np.all(s.h0[inside] == pytest.approx(cfg.geometry.height))
     assert np.all(s.h0[~inside] == 0.0)
+
+
+@pytest.mark.parametrize("overrides, k_pair", [
+    ((), None),                                   # hydrostatic by default: K = 1
+    # bed 25.5° = φ → rheology, δ = φ: K_act = K_pass = 1 + 2 tan²φ
+    (("model.earth_pressure=savage_hutter",), (1.455011, 1.455011)),
+    # the layer slides on a 20° bed (δ = 20°, φ = 25.5°)
+    (("model.earth_pressure=savage_hutter", "boundary.bed_friction_angle=20"), (0.771926, 2.138097)),
+])
+def test_earth_pressure_from_the_config(overrides, k_pair):
+    ep = setup_from_config(_cfg(*overrides)).model.earth_pressure
+    if k_pair is None:
+        assert ep is None
+    else:
+        assert (ep.k_active, ep.k_passive) == pytest.approx(k_pair, abs=2e-6)
+
+
+def test_earth_pressure_refuses_a_bed_rougher_than_the_material():
+    from dpcollapse.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r"^boundary.bed_friction_angle = 30.*imaginary"):
+        _cfg("model.earth_pressure=savage_hutter", "model.basal_friction=bed",
+             "boundary.bed_friction_angle=30")
+    _cfg("model.basal_friction=bed", "boundary.bed_friction_angle=30")   # K = 1: allowed

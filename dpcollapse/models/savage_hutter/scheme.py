@@ -3,11 +3,16 @@
 Conservative variables U = (h, q = h ū) on cells of width Δx, flux and sources (x along the bed
 inclined at θ, SI units)::
 
-    F(U) = (q, α q²/h + g cosθ h²/2),    S = (0, g h sinθ − g cosθ h μ_eff sign(ū))
+    F(U) = (q, α q²/h + K g cosθ h²/2),    S = (0, g h sinθ − g cosθ h μ_eff sign(ū))
 
-Fluxes: HLL with the wave speeds λ± = α ū ± √(α(α−1) ū² + g cosθ h) (eigenvalues of ∂F/∂U),
+K is the earth-pressure coefficient: 1 (hydrostatic, isotropic pressure: ``Physics.earth_pressure``
+None) or Savage & Hutter's K_act/pass per cell (``earth_pressure``: active where the cell
+stretches or rests, passive where it is compressed); each side of a face uses its own cell's K
+(the conservative form ∂x(K g cosθ h²/2), equal to Savage & Hutter's K g cosθ h ∂x h wherever K
+is uniform).
+Fluxes: HLL with the wave speeds λ± = α ū ± √(α(α−1) ū² + K g cosθ h) (eigenvalues of ∂F/∂U),
 s_L = min(λ−_L, λ−_R, 0), s_R = max(λ+_L, λ+_R, 0), and the dry-bed speeds ū_L + 2 c_L (right
-cell dry) / ū_R − 2 c_R (left cell dry), c = √(g cosθ h). With s_L ≤ ū ≤ s_R the update of h is
+cell dry) / ū_R − 2 c_R (left cell dry), c = √(K g cosθ h). With s_L ≤ ū ≤ s_R the update of h is
 a combination of h_{i−1}, h_i, h_{i+1} with non-negative coefficients when
 Δt ≤ Δx / a_i, a_i = s_R(ū_i − s_L)/(s_R − s_L)|_{i+½} + (−s_L)(s_R − ū_i)/(s_R − s_L)|_{i−½}:
 ``interface_terms`` returns that bound (dt_max), so h ≥ 0 (up to round-off, clipped) at any front.
@@ -32,20 +37,21 @@ a convergent product; flows thicker than h_α see the full α. Its wave speeds: 
 Well balance (friction in the reconstruction). Between two cells at rest (q = 0) the HLL flux
 still diffuses mass, −c (h_R − h_L)/2 with c the larger sound speed: that is how a plain split
 creeps. So a face whose two cells are at rest passes no mass and carries the central thrust
-(p_L + p_R)/2, p = g cosθ h²/2 (the HLL value at rest with symmetric speeds); if the force
+(p_L + p_R)/2, p = K g cosθ h²/2 (the HLL value at rest with symmetric speeds); if the force
 beats friction the cells get a velocity first, and mass moves at the next step. Such a face is
 moreover *locked* when its surface step obeys
 
     |h_R − h_L − Δx tanθ| ≤ μ_static Δx,   μ_static = min over the two cells of μ_b(Ī=0) + μ_w h/w
 
-i.e. when the net force of pressure and gravity on its two half cells, −g cosθ h̄ (Δh − Δx tanθ)
-with h̄ = (h_L + h_R)/2, is within the static friction μ_static g cosθ h̄ Δx of those half
+(with an earth pressure: (K_R h_R² − K_L h_L²)/(h_L + h_R) in place of h_R − h_L, i.e. K Δh
+for a uniform K), i.e. when the net force of pressure and gravity on its two half cells,
+−(p_R − p_L) + g sinθ h̄ Δx = −g cosθ h̄ (Δh − Δx tanθ) at K = 1 with h̄ = (h_L + h_R)/2, is within the static friction μ_static g cosθ h̄ Δx of those half
 cells. At a wall the mirror cell is not material: the wall reacts to any push into it, so a wall
 face at rest is locked unless the pull away from the wall exceeds friction (right wall:
 h_R − h_L − Δx tanθ ≤ μ_static Δx, left wall: ≥ −μ_static Δx, with the mirrored h). A locked
 face returns each side its own hydrostatic thrust::
 
-    F^h = 0,   G^L = g cosθ h_L²/2,   G^R = g cosθ h_R²/2
+    F^h = 0,   G^L = p_L = K_L g cosθ h_L²/2,   G^R = p_R = K_R g cosθ h_R²/2
 
 A cell whose two faces are locked is *held*: both faces return its own thrust, so h* = h and
 q* = 0 bit for bit. A cell with only one locked face feels the full force of both faces (its
@@ -97,7 +103,8 @@ class Physics:
     alpha_depth: h_α [m], the thickness below which the shape factor tapers linearly to 1
     (see the module docstring); well_balanced: no mass between cells at rest, friction locking
     (False gives the plain split ū ← max(|ū| − μ g cosθ Δt, 0) sign ū after the HLL fluxes, kept
-    only to show that it creeps)."""
+    only to show that it creeps); earth_pressure: an ``earth_pressure.EarthPressure`` (K per cell)
+    or None (K = 1, hydrostatic)."""
 
     g: float
     theta: float
@@ -107,6 +114,7 @@ class Physics:
     h_dry: float = 1e-10
     well_balanced: bool = True  # False: the plain split, for comparison only
     alpha_depth: float = 1e-3   # h_α [m]: below it the shape factor tapers to 1
+    earth_pressure: object = None  # EarthPressure, or None: K = 1
 
     def shape_factor(self, h):
         """a(h) = α for h ≥ h_α, 1 + (α − 1) h/h_α below (the momentum flux is a q²/h)."""
@@ -188,6 +196,10 @@ def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
     he, qe = extend_with_ghosts(h, q, left, right)
     ue = velocity(he, qe, phys.h_dry)
     g_cos, alpha = phys.g_cos, phys.alpha
+    # K of each (ghost-extended) cell; 1.0 (a scalar: the K = 1 arithmetic unchanged bit for bit)
+    k = (phys.earth_pressure.cell_coefficients(ue, he > phys.h_dry)
+         if phys.earth_pressure is not None else None)
+    kl, kr = (k[:-1], k[1:]) if k is not None else (1.0, 1.0)
     if order == 1:
         hl, hr = he[:-1], he[1:]
         ql, qr = qe[:-1], qe[1:]
@@ -200,8 +212,8 @@ def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
         ur = np.where(hr > phys.h_dry, u_minus[1:], 0.0)
         ql, qr = hl * ul, hr * ur
 
-    def speeds(hf, uf, af):
-        c2 = g_cos * hf
+    def speeds(hf, uf, af, kf):
+        c2 = g_cos * kf * hf
         if alpha == 1.0:
             spread = np.sqrt(c2)
         else:  # thick: α(α−1); tapered (h < h_α, F = a q²/h with a = 1 + (α−1) h/h_α): a² − 1
@@ -210,30 +222,37 @@ def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
         return af * uf - spread, af * uf + spread
 
     a_l, a_r = phys.shape_factor(hl), phys.shape_factor(hr)
-    lm_l, lp_l = speeds(hl, ul, a_l)
-    lm_r, lp_r = speeds(hr, ur, a_r)
+    lm_l, lp_l = speeds(hl, ul, a_l, kl)
+    lm_r, lp_r = speeds(hr, ur, a_r, kr)
     s_l = np.minimum(np.minimum(lm_l, lm_r), 0.0)
     s_r = np.maximum(np.maximum(lp_l, lp_r), 0.0)
     dry_r = hr <= phys.h_dry
     dry_l = hl <= phys.h_dry
     if dry_r.any() or dry_l.any():
-        s_r = np.where(dry_r, np.maximum(s_r, ul + 2.0 * np.sqrt(g_cos * hl)), s_r)
-        s_l = np.where(dry_l, np.minimum(s_l, ur - 2.0 * np.sqrt(g_cos * hr)), s_l)
+        s_r = np.where(dry_r, np.maximum(s_r, ul + 2.0 * np.sqrt(g_cos * kl * hl)), s_r)
+        s_l = np.where(dry_l, np.minimum(s_l, ur - 2.0 * np.sqrt(g_cos * kr * hr)), s_l)
     width = s_r - s_l
     inv_width = 1.0 / np.where(width > 0.0, width, 1.0)
-    flux_l = a_l * ql * ul + 0.5 * g_cos * hl * hl
-    flux_r = a_r * qr * ur + 0.5 * g_cos * hr * hr
+    k_face = 0.5 * (kl + kr) if k is not None else 1.0
+    flux_l = a_l * ql * ul + 0.5 * g_cos * k_face * hl * hl
+    flux_r = a_r * qr * ur + 0.5 * g_cos * k_face * hr * hr
     prod = s_l * s_r
     mass_flux = (s_r * ql - s_l * qr + prod * (hr - hl)) * inv_width
     mom_flux = (s_r * flux_l - s_l * flux_r + prod * (qr - ql)) * inv_width
-    pressure = 0.5 * g_cos * he * he
+    face_pressure = 0.25 * g_cos * (hl * hl + hr * hr)    # hydrostatic (K = 1), face states
+    pressure = 0.5 * g_cos * (k if k is not None else 1.0) * he * he
     hl, hr = he[:-1], he[1:]          # cell values from here on
     ql, qr = qe[:-1], qe[1:]
 
     # Friction locking (module docstring).
     mu_static = phys.static_friction(he)
     mu_face = np.minimum(mu_static[:-1], mu_static[1:])
-    drive = hr - hl - dx * math.tan(phys.theta)
+    if k is None:
+        drive = hr - hl - dx * math.tan(phys.theta)
+    else:   # (p_R − p_L)/(g cosθ h̄) − Δx tanθ: K Δh − Δx tanθ for a uniform K
+        h_sum = hl + hr
+        drive = ((kr * hr * hr - kl * hl * hl) / np.where(h_sum > 0.0, h_sum, 1.0)
+                 - dx * math.tan(phys.theta))
     at_rest = (ql == 0.0) & (qr == 0.0)
     if not phys.well_balanced:
         at_rest[:] = False
@@ -246,7 +265,18 @@ def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
     # Between two cells at rest the HLL flux would still diffuse mass, −c (h_R − h_L)/2: no mass
     # crosses such a face and it carries the central thrust (p_L + p_R)/2 (the HLL value at rest
     # with symmetric speeds); if the force beats friction the cells move first, then mass.
-    mom_flux = np.where(at_rest, 0.5 * (pressure[:-1] + pressure[1:]), mom_flux)
+    # Earth pressure, non-conservative as Savage & Hutter's −K g cosθ h ∂x h: the HLL flux carries
+    # the faces' mean K, and each side sees its own cell's K times the hydrostatic face pressure
+    # P̄ = g cosθ (h_L² + h_R²)/4, so a jump of K between cells exerts no force of its own.
+    if k is None:
+        mom_flux = np.where(at_rest, 0.5 * (pressure[:-1] + pressure[1:]), mom_flux)
+        to_left = to_right = mom_flux
+    else:
+        cell_mean = 0.25 * g_cos * (hl * hl + hr * hr)
+        face_pressure = np.where(at_rest, cell_mean, face_pressure)
+        mom_flux = np.where(at_rest, k_face * cell_mean, mom_flux)
+        to_left = mom_flux + (kl - k_face) * face_pressure
+        to_right = mom_flux + (kr - k_face) * face_pressure
 
     # A cell is held when both its faces are locked; only then do its faces return the at-rest
     # thrust. A cell with one locked face feels the full force (both faces' unlocked terms) and
@@ -254,8 +284,8 @@ def interface_terms(h, q, phys: Physics, dx: float, cfl: float, left: str,
     held = np.zeros(he.size, dtype=bool)
     held[1:-1] = locked[:-1] & locked[1:]
     half_gravity = 0.5 * phys.g_sin * dx
-    left_flux = np.where(held[:-1], pressure[:-1], mom_flux - half_gravity * hl)
-    right_flux = np.where(held[1:], pressure[1:], mom_flux + half_gravity * hr)
+    left_flux = np.where(held[:-1], pressure[:-1], to_left - half_gravity * hl)
+    right_flux = np.where(held[1:], pressure[1:], to_right + half_gravity * hr)
     mass_flux[at_rest] = 0.0
     if left == "wall":
         mass_flux[0] = 0.0

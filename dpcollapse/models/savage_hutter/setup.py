@@ -14,6 +14,9 @@ What a config means for the 1D model (docs/savage_hutter.md, "From a config"):
   - ``auto``: ``bed`` when boundary.bed_condition = coulomb and the bed friction angle is
     below material.friction_angle (the layer slides on the bed), else ``rheology`` (a no-slip
     or rougher bed: the material shears just above it, at its own friction);
+* earth pressure (``model.earth_pressure``): hydrostatic K = 1, or Savage & Hutter's K_act/pass
+  with φ = material.friction_angle and δ the angle of the basal law: bed →
+  boundary.bed_friction_angle, rheology → φ (the material shears at its own friction);
 * side walls: boundary.channel_width w and μ_w = tan(boundary.side_wall_friction_angle) add
   μ_w h/w to μ_b (the depth average of the 2D side-wall term);
 * the numerical keys of the ``model`` section (α, h_α, order, CFL, h_dry, front threshold,
@@ -26,12 +29,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dpcollapse.models.savage_hutter.earth_pressure import EarthPressure
 from dpcollapse.models.savage_hutter.friction import CoulombFriction, MuIFriction, SideWallFriction
 from dpcollapse.models.savage_hutter.initial import (column_vertices, polygon_area,
                                                      polygon_cell_averages, trapezoid_vertices)
 from dpcollapse.models.savage_hutter.solver import Grid, SavageHutter
 
-__all__ = ["SavageHutterSetup", "basal_friction", "domain_end", "setup_from_config"]
+__all__ = ["SavageHutterSetup", "basal_friction", "domain_end", "earth_pressure",
+           "setup_from_config"]
 
 #: The downslope end of the domain when model.x_max is null: base_length + this × height [m].
 DEFAULT_RUNOUT_HEIGHTS = 20.0
@@ -70,6 +75,17 @@ def basal_friction(cfg) -> tuple[CoulombFriction | MuIFriction, str]:
     return CoulombFriction(m.mu_s), choice
 
 
+def earth_pressure(cfg, source: str) -> EarthPressure | None:
+    """None (K = 1) for ``model.earth_pressure: hydrostatic``, else Savage & Hutter's K_act/pass
+    of φ = material.friction_angle and δ = the basal law's angle (``source``: "bed" or
+    "rheology", from ``basal_friction``)."""
+    if cfg.model.earth_pressure == "hydrostatic":
+        return None
+    phi = cfg.material.friction_angle
+    delta = cfg.boundary.bed_friction_angle if source == "bed" else phi
+    return EarthPressure.savage_hutter(phi, delta)
+
+
 def scene_polygon(cfg) -> np.ndarray:
     """The initial mass of the config's scene as a polygon (wall at x = 0) [m]."""
     g = cfg.geometry
@@ -91,7 +107,7 @@ def setup_from_config(cfg) -> SavageHutterSetup:
                          shape_factor=s.shape_factor, g=cfg.material.gravity, left=s.left,
                          right=s.right, cfl=s.cfl, h_dry=s.h_dry,
                          front_threshold=s.front_threshold, order=s.order,
-                         alpha_depth=s.alpha_depth)
+                         alpha_depth=s.alpha_depth, earth_pressure=earth_pressure(cfg, source))
     grid = Grid(x_min=s.x_min, x_max=domain_end(cfg), n_cells=s.n_cells)
     vertices = scene_polygon(cfg)
     h0 = np.maximum(polygon_cell_averages(vertices, grid), 0.0)

@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dpcollapse.models.savage_hutter.earth_pressure import EarthPressure
 from dpcollapse.models.savage_hutter.friction import CoulombFriction, MuIFriction, SideWallFriction
 from dpcollapse.models.savage_hutter.scheme import (
     BOUNDARY_KINDS,
@@ -106,7 +107,8 @@ class SavageHutter:
     to demonstrate the creep of the plain split); order: 1 (first-order HLL, forward Euler) or 2
     (MUSCL reconstruction of h and ū with the MC limiter, Heun's two-stage Runge–Kutta);
     alpha_depth [m]: below this thickness the shape factor tapers linearly to 1 (``scheme``: the
-    α > 1 front)."""
+    α > 1 front); earth_pressure: None (K = 1, hydrostatic) or an ``EarthPressure`` (Savage &
+    Hutter's K_act/pass, ``earth_pressure``)."""
 
     basal: CoulombFriction | MuIFriction
     slope_deg: float = 0.0
@@ -121,6 +123,7 @@ class SavageHutter:
     well_balanced: bool = True
     order: int = 1
     alpha_depth: float = 1e-3
+    earth_pressure: EarthPressure | None = None
 
     def __post_init__(self):
         if self.left not in BOUNDARY_KINDS or self.right not in BOUNDARY_KINDS:
@@ -141,7 +144,8 @@ class SavageHutter:
         """The step's ``scheme.Physics``."""
         return Physics(g=self.g, theta=math.radians(self.slope_deg), alpha=self.shape_factor,
                        basal=self.basal, side_wall=self.side_wall, h_dry=self.h_dry,
-                       well_balanced=self.well_balanced, alpha_depth=self.alpha_depth)
+                       well_balanced=self.well_balanced, alpha_depth=self.alpha_depth,
+                       earth_pressure=self.earth_pressure)
 
 
 @dataclass

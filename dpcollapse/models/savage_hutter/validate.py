@@ -114,12 +114,14 @@ def kerswell_run(n: int, order: int = 1) -> dict:
             "wet_front": s["wet_front"], "front": s["front"], "x": grid.centers, "h": res.h[-1]}
 
 
-def heap_run(well_balanced: bool, basal=None, n: int = 350, t_end: float = 20.0) -> dict:
+def heap_run(well_balanced: bool, basal=None, n: int = 350, t_end: float = 20.0,
+             earth_pressure=None) -> dict:
     """Heap on a 10° slope, faces rising 0.5 (upslope) and falling 0.3 (downslope), peak 1 m:
-    ∂x h − tanθ ∈ {0.324, −0.476}, within μ = tan 30° = 0.577, so it must stay at rest."""
+    ∂x h − tanθ ∈ {0.324, −0.476}, within μ = tan 30° = 0.577, so it must stay at rest
+    (earth_pressure: an ``EarthPressure``, K ∂x h in place of ∂x h; None: K = 1)."""
     basal = basal or CoulombFriction(math.tan(math.radians(30.0)))
     model = SavageHutter(basal=basal, slope_deg=10.0, left="open", right="open",
-                         well_balanced=well_balanced)
+                         well_balanced=well_balanced, earth_pressure=earth_pressure)
     grid = Grid(-3.0, 4.0, n)
     h0 = grid.cell_values(lambda x: np.maximum(0.0, np.where(x < 0, 1 + 0.5 * x, 1 - 0.3 * x)))
     res = simulate(model, grid, h0, [t_end], stop_at_rest=False)
