@@ -28,7 +28,8 @@ from dpcollapse.errors import (  # noqa: E402
     Interrupted,
     OutputError,
 )
-from dpcollapse.parallel import end_together, install_excepthook  # noqa: E402
+from dpcollapse import parallel  # noqa: E402
+from dpcollapse.parallel import PeerFailed, end_together, install_excepthook  # noqa: E402
 
 try:  # an editable install made before dpcollapse/__init__.py existed sees a namespace package
     from dpcollapse import __version__
@@ -514,10 +515,11 @@ def _error(message: str) -> None:
         click.echo("dpcollapse: error: " + " ".join(str(message).split()), err=True)
 
 
-def _fail(message: str, exit_code: int) -> int:
-    """Report an error and return its exit status. Under MPI every rank must be failing
-    too; a rank that fails alone aborts the whole job instead (:mod:`dpcollapse.parallel`)."""
-    end_together(exit_code, " ".join(str(message).split()))
+def _fail(message: str, exit_code: int, peer: bool = False) -> int:
+    """Report an error and return its exit status. Under MPI the other ranks are told
+    (``peer``: the error is another rank's) and must end too; when one cannot, the whole
+    job is aborted instead (:mod:`dpcollapse.parallel`)."""
+    end_together(exit_code, " ".join(str(message).split()), peer=peer)
     _error(message)
     return exit_code
 
@@ -526,9 +528,11 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line on ``argv`` (default: sys.argv[1:]) and return the exit status."""
     _setup_logging()
     try:
+        parallel.start()   # the failure protocol's communicator (every rank, same point)
         rv = cli.main(args=argv, prog_name="dpcollapse", standalone_mode=False)
     except DpcollapseError as exc:
-        return _fail(str(exc) or exc.__class__.__name__, exc.exit_code)
+        return _fail(str(exc) or exc.__class__.__name__, exc.exit_code,
+                     peer=isinstance(exc, PeerFailed))
     except click.UsageError as exc:
         hint = f" (see '{exc.ctx.command_path} --help')" if exc.ctx else ""
         return _fail(exc.format_message() + hint, exc.exit_code)
@@ -558,21 +562,22 @@ def entry() -> None:
     install_excepthook()
     code = main()
     xdmf = sys.modules.get("dpcollapse.io.xdmf")
-    if xdmf is not None and xdmf.hdf5_write_failed:
+    if code and (parallel.several_ranks() or (xdmf is not None and xdmf.hdf5_write_failed)):
         _exit_without_finalizers(code)
     sys.exit(code)
 
 
 def _exit_without_finalizers(code: int) -> None:
-    """Leave now, without the HDF5 and MPI terminators: after a failed HDF5 write, HDF5
-    1.14 asserts in them (exit 134 instead of the error's own status). Under mpirun the job
-    is aborted with the status, which mpirun passes on."""
+    """Leave now, without the PETSc and HDF5 terminators: after a failed HDF5 write, HDF5
+    1.14 asserts in them (exit 134 instead of the error's own status); under mpirun, after
+    an error the ranks may have stopped at different calls, and PETSc's terminator (its
+    collective garbage clean-up) would then wait forever. MPI itself is finalized (the
+    ranks have met in ``parallel.end_together``), so mpirun passes the status on."""
     sys.stdout.flush()
     sys.stderr.flush()
     world = sys.modules.get("mpi4py.MPI")
-    if world is not None and world.Is_initialized() and not world.Is_finalized() \
-            and world.COMM_WORLD.size > 1:
-        world.COMM_WORLD.Abort(code)
+    if world is not None and world.Is_initialized() and not world.Is_finalized():
+        world.Finalize()
     os._exit(code)
 
 

@@ -156,7 +156,9 @@ def choose_checkpoint(path: Path, comm, required: tuple[str, ...] = _REQUIRED) -
                 choice = str(candidate)
                 break
             problems.append(f"{candidate.name}: {problem}")
-    choice, problems = comm.bcast((choice, problems), root=0)
+    from dpcollapse import parallel
+
+    choice, problems = parallel.bcast(comm, (choice, problems), root=0)
     if choice is None:
         raise ConfigError(f"--resume: no usable checkpoint in {path.parent} ({'; '.join(problems)})"
                           "; start the run again with --overwrite")

@@ -22,8 +22,12 @@ class DiagnosticsWriter:
         self.rank = comm.rank
         #: COLUMNS, then the model's own measures (the depth-averaged model: wet_front, outflow)
         self.columns = COLUMNS + [c for c in extra_columns if c not in COLUMNS]
-        if self.rank != 0:
-            return
+        from dpcollapse import parallel
+
+        parallel.on_root(comm, lambda: self._start(resume_after))   # its failure is every rank's
+
+    def _start(self, resume_after: float | None) -> None:
+        """Rank 0: the file with the rows kept on resume, open for appending."""
         rows = []
         if resume_after is not None and self.path.exists():
             rows = [r for r in complete_rows(self.path) if float(r["t"]) <= resume_after + 1e-12]

@@ -192,7 +192,9 @@ def claim_on_root(comm, run_dir, config: dict[str, Any], mode: str) -> RunDirect
             claim.claim(config, mode)
         except ConfigError as exc:
             error = str(exc)
-    error = comm.bcast(error, root=0)
+    from dpcollapse import parallel
+
+    error = parallel.bcast(comm, error, root=0)
     if error is not None:
         raise ConfigError(error)
     return claim

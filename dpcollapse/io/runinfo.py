@@ -62,12 +62,15 @@ class RunInfo:
                     {k: old.get(k) for k in ("status", "started", "summary", "timings")}]
             except (json.JSONDecodeError, OSError):
                 pass
-        self.write()
+        from dpcollapse import parallel
+
+        parallel.on_root(comm, self.write)   # a failure to write it ends every rank
 
     def update(self, **kwargs) -> None:
         self.data.update(kwargs)
 
     def write(self) -> None:
+        """Rewrite run.json (rank 0; not collective)."""
         if self.rank == 0:
             self.data["wall_time"] = time.time() - self.started
             write_json_atomic(self.path, self.data)

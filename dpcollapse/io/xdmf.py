@@ -50,7 +50,7 @@ from typing import Sequence
 import h5py
 from mpi4py import MPI
 
-from dpcollapse import compat
+from dpcollapse import compat, parallel
 from dpcollapse.io.durable import fsync_path
 
 __all__ = ["XDMFTimeSeries", "check_output_function"]
@@ -228,22 +228,25 @@ class XDMFTimeSeries:
 
         index = self._next_index
         step_xdmf = self.step_path(index)
-        try:
-            with c_stderr_captured() as captured:   # HDF5 prints its error stack there
-                compat.write_xdmf_step(self.comm, str(step_xdmf), mesh, functions, t)
-                if HDF5_ERROR in captured.so_far():
-                    raise RuntimeError("HDF5 reported an error (its stack is on stderr)")
-        except RuntimeError as exc:  # HDF5 reports a full disk or a lost file this way
-            global hdf5_write_failed
-            hdf5_write_failed = True
-            if self.comm.rank == 0:
-                for path in (step_xdmf, step_xdmf.with_suffix(".h5")):
-                    path.unlink(missing_ok=True)
-            reason = re.search(r"error message = '([^']+)'", captured.text)
-            detail = reason.group(1) if reason else str(exc)
-            raise OSError(errno.EIO, f"writing {step_xdmf.name} failed ({detail})",
-                          str(step_xdmf.with_suffix(".h5"))) from None
-        self.comm.Barrier()  # every rank's share of the H5 file is closed
+        def write_step():
+            try:
+                with c_stderr_captured() as captured:   # HDF5 prints its error stack there
+                    compat.write_xdmf_step(self.comm, str(step_xdmf), mesh, functions, t)
+                    if HDF5_ERROR in captured.so_far():
+                        raise RuntimeError("HDF5 reported an error (its stack is on stderr)")
+            except RuntimeError as exc:  # HDF5 reports a full disk or a lost file this way
+                global hdf5_write_failed
+                hdf5_write_failed = True
+                if self.comm.rank == 0:
+                    for path in (step_xdmf, step_xdmf.with_suffix(".h5")):
+                        path.unlink(missing_ok=True)
+                reason = re.search(r"error message = '([^']+)'", captured.text)
+                detail = reason.group(1) if reason else str(exc)
+                raise OSError(errno.EIO, f"writing {step_xdmf.name} failed ({detail})",
+                              str(step_xdmf.with_suffix(".h5"))) from None
+
+        # every rank's share of the H5 file is closed, and a failure on one is every rank's
+        parallel.agree(self.comm, write_step)
 
         def publish():
             step_h5 = step_xdmf.with_suffix(".h5")
@@ -280,17 +283,8 @@ class XDMFTimeSeries:
 
     # ------------------------------------------------------------------ internals
     def _on_root(self, fn):
-        """Run ``fn`` on rank 0, broadcast its result (or its exception) to all ranks."""
-        result, error = None, None
-        if self.comm.rank == 0:
-            try:
-                result = fn()
-            except Exception as exc:  # re-raised on every rank below
-                error = exc
-        result, error = self.comm.bcast((result, error), root=0)
-        if error is not None:
-            raise error
-        return result
+        """Run ``fn`` on rank 0, share its result (or its exception) with all ranks."""
+        return parallel.on_root(self.comm, fn)
 
     def _rel(self, path: Path) -> str:
         return Path(os.path.relpath(path, self.master.parent)).as_posix()
