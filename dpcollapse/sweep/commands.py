@@ -94,8 +94,7 @@ def _sweep(sweep_file, executor, jobs, out, overrides, collect, dry_run, retry_f
     if executor == "slurm":
         array, collect_script = ex.write_slurm(sw, out, list(overrides), jobs)
         click.echo(f"wrote {array} ({len(sw.cases)} array tasks) and {collect_script}\n"
-                   f"submit: jid=$(sbatch --parsable {array}) && "
-                   f"sbatch --dependency=afterany:$jid {collect_script}")
+                   f"submit: {ex.submit_hint(array, collect_script)}")
         return 0
     table = ex.run_sweep(sw, out, executor, jobs or 1, retry_failed)
     click.echo(f"wrote {out / 'sweep.csv'}: {coll.progress_line(table)}")

@@ -59,6 +59,39 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
+#: A value of an ``#SBATCH`` option: one word of letters, digits and ``_.:,+=@%/-`` (no
+#: space, quote, ``$``, ``#`` or control character: nothing a job script could run).
+_SBATCH_VALUE = re.compile(r"^[\w.:,+=@%/-]+$")
+#: A further sbatch option (``--qos=short``): a dash first, no space, quote, ``$`` or backslash.
+_SBATCH_OPTION = re.compile(r"^-[^\s\"'$`\\#]+$")
+
+
+def no_control_characters(value: str) -> str:
+    """``value`` unchanged, or ValueError when it holds a newline or another control
+    character (it would start a new line of a generated script)."""
+    if any(ord(c) < 32 or ord(c) == 127 for c in value):
+        raise ValueError("must not contain a newline or another control character")
+    return value
+
+
+def check_launcher(value: str) -> str:
+    """A launcher prefix: one line, shell words, ``{ranks}`` its only placeholder."""
+    import shlex
+    import string
+
+    no_control_characters(value)
+    try:
+        fields = {name for _, name, _, _ in string.Formatter().parse(value) if name is not None}
+        value.format(ranks=2)
+        shlex.split(value)
+    except (ValueError, IndexError, KeyError) as exc:
+        raise ValueError(f"not a launcher prefix ({exc}); e.g. 'mpirun -n {{ranks}}'") from None
+    unknown = sorted(fields - {"ranks"})
+    if unknown:
+        raise ValueError(f"unknown placeholder {{{unknown[0]}}}; the only one is {{ranks}}")
+    return value
+
+
 class SlurmOptions(_Strict):
     """``--executor slurm``: the ``#SBATCH`` lines of the job-array script."""
 
@@ -71,6 +104,40 @@ class SlurmOptions(_Strict):
     launcher: str = Field("srun -n {ranks}", description="prefix of a case on several ranks")
     python: str | None = Field(None, description="Python of the array tasks "
                                "(default: the one writing the script)")
+
+    @field_validator("time", "partition", "account", "memory_per_cpu")
+    @classmethod
+    def _one_word(cls, v: str | None) -> str | None:
+        if v is not None and not _SBATCH_VALUE.match(v):
+            raise ValueError("must be one word of letters, digits and _.:,+=@%/- (no space, "
+                             "quote, $ or control character)")
+        return v
+
+    @field_validator("sbatch")
+    @classmethod
+    def _options(cls, v: list[str]) -> list[str]:
+        for option in v:
+            if not _SBATCH_OPTION.match(option):
+                raise ValueError(f"{option!r}: an sbatch option such as --qos=short (a dash "
+                                 "first; no space, quote, $, # or control character)")
+        return v
+
+    @field_validator("setup")
+    @classmethod
+    def _lines(cls, v: list[str]) -> list[str]:
+        for line in v:
+            no_control_characters(line)
+        return v
+
+    @field_validator("python")
+    @classmethod
+    def _python(cls, v: str | None) -> str | None:
+        return None if v is None else no_control_characters(v)
+
+    @field_validator("launcher")
+    @classmethod
+    def _launcher(cls, v: str) -> str:
+        return check_launcher(v)
 
 
 class SweepFile(_Strict):
@@ -85,6 +152,11 @@ class SweepFile(_Strict):
     ranks_per_case: Annotated[int, Field(ge=1, le=4096, strict=True)] = 1
     launcher: str = "mpirun -n {ranks}"
     slurm: SlurmOptions = SlurmOptions()
+
+    @field_validator("launcher")
+    @classmethod
+    def _launcher(cls, v: str) -> str:
+        return check_launcher(v)
 
     @field_validator("collect")
     @classmethod
