@@ -562,22 +562,36 @@ def entry() -> None:
     install_excepthook()
     code = main()
     xdmf = sys.modules.get("dpcollapse.io.xdmf")
-    if code and (parallel.several_ranks() or (xdmf is not None and xdmf.hdf5_write_failed)):
+    if code and xdmf is not None and xdmf.hdf5_write_failed:
         _exit_without_finalizers(code)
+    if code and parallel.out_of_step():
+        _leave_out_of_step(code)
     sys.exit(code)
 
 
 def _exit_without_finalizers(code: int) -> None:
-    """Leave now, without the PETSc and HDF5 terminators: after a failed HDF5 write, HDF5
-    1.14 asserts in them (exit 134 instead of the error's own status); under mpirun, after
-    an error the ranks may have stopped at different calls, and PETSc's terminator (its
-    collective garbage clean-up) would then wait forever. MPI itself is finalized (the
-    ranks have met in ``parallel.end_together``), so mpirun passes the status on."""
+    """Leave now, without the HDF5 and MPI terminators: after a failed HDF5 write, HDF5
+    1.14 asserts in them (exit 134 instead of the error's own status). Under mpirun the job
+    is aborted with the status, which mpirun passes on."""
     sys.stdout.flush()
     sys.stderr.flush()
     world = sys.modules.get("mpi4py.MPI")
-    if world is not None and world.Is_initialized() and not world.Is_finalized():
-        world.Finalize()
+    if world is not None and world.Is_initialized() and not world.Is_finalized() \
+            and world.COMM_WORLD.size > 1:
+        world.COMM_WORLD.Abort(code)
+    os._exit(code)
+
+
+def _leave_out_of_step(code: int) -> None:
+    """After an error the ranks stopped at different calls (``parallel.out_of_step``):
+    PETSc's terminator (a collective clean-up) would wait forever, so leave without it;
+    MPI itself is finalized (the ranks have met in ``parallel.end_together``), so mpirun
+    passes the status on."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    MPI = sys.modules.get("mpi4py.MPI")
+    if MPI is not None and MPI.Is_initialized() and not MPI.Is_finalized():
+        MPI.Finalize()
     os._exit(code)
 
 

@@ -51,6 +51,7 @@ _SLEEP = 0.0005
 _control = None                 # the control communicator (start())
 _failure: tuple | None = None   # (rank, exit status, message) once this rank knows of a failure
 _sent: list = []                # pending notices (kept alive until the end)
+_abandoned = False              # a failure-aware wait was left by an exception
 _abort_hooks: list[Callable[[], None]] = []
 
 
@@ -86,9 +87,12 @@ def several_ranks() -> bool:
 
 def start() -> None:
     """Create the control communicator (collective over COMM_WORLD: every rank must call
-    it at the same point). A no-op without MPI, on one rank, or when already done."""
+    it at the same point). A no-op without MPI, on one rank, when already done, and under
+    ``python -m mpi4py.futures`` (the sweep's driver: the other ranks are workers)."""
     global _control
     world = _world()
+    if "mpi4py.futures" in sys.modules:   # only the driver (rank 0) runs the command line
+        return
     if _control is None and world is not None and world.size > 1:
         _control = world.Dup()
 
@@ -142,12 +146,24 @@ def _drain() -> None:
 def wait(request) -> None:
     """Complete a non-blocking MPI request, watching for other ranks' failures (raises
     :class:`PeerFailed`) and letting signal handlers run (an interrupt while waiting)."""
+    global _abandoned
     spins = 0
-    while not request.Test():
-        check_peers()
-        spins += 1
-        if spins > _SPINS:
-            time.sleep(_SLEEP)
+    try:
+        while not request.Test():
+            check_peers()
+            spins += 1
+            if spins > _SPINS:
+                time.sleep(_SLEEP)
+    except BaseException:
+        _abandoned = True     # a collective call left pending: the ranks are out of step
+        raise
+
+
+def out_of_step() -> bool:
+    """Whether this rank learned of another's failure or left a collective call pending:
+    then the ranks stopped at different calls, and no collective terminator (PETSc's) may
+    run at exit."""
+    return _abandoned or (_failure is not None and several_ranks())
 
 
 # ----------------------------------------------------------------------------- collectives

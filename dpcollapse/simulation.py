@@ -31,6 +31,7 @@ import math
 import signal
 import sys
 import time
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -146,9 +147,13 @@ class Simulation:
         self.checkpoint_path = self.run_dir / "checkpoint.npz"
         resume = resume and (self.checkpoint_path.exists()
                              or previous_path(self.checkpoint_path).exists())
+        #: the run's identity and config fingerprint, stored in every checkpoint
+        self.identity = {"fingerprint": config_fingerprint(cfg), "run_id": uuid.uuid4().hex[:12]}
         if resume:
             disc, state = self.factory.load_checkpoint(self.checkpoint_path, comm)
             self.state = LoopState.from_dict(state)
+            self.identity["run_id"] = check_identity(self.state.extra.get("run"), self.identity,
+                                                     self.run_dir)
             self._use(disc)
             self._last_measures = self.disc.measures()
             log.info("resuming from t = %.4f s (step %d)", self.state.t, self.state.step)
@@ -167,7 +172,16 @@ class Simulation:
         self.diagnostics = DiagnosticsWriter(self.run_dir / "diagnostics.csv", comm,
                                              resume_after=self.state.t if resume else None,
                                              extra_columns=self.disc.extra_measures)
-        self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg))
+        if resume:   # the checkpoint step's row, if the file lost it (cut by a crash)
+            restored = parallel.agree(comm, lambda: self.diagnostics.restore(
+                {"step": self.state.step, "t": self.state.t, "remeshes": self.state.remeshes,
+                 "landings": self.state.landings or 0, **self._last_measures}))
+            if restored:
+                log.warning("diagnostics.csv ended before the checkpoint (t = %.4f s): its row "
+                            "was rebuilt from the checkpoint (dt, iterations: nan); rows between "
+                            "them, if any, are lost", self.state.t)
+        self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg),
+                            run_id=self.identity["run_id"])
         self.timings = {"solve": 0.0, "mesh_motion": 0.0, "remesh": 0.0, "output": 0.0}
         self.iteration_counts: list[int] = []
         self.step_sizes: list[float] = []
@@ -208,7 +222,7 @@ class Simulation:
         t0 = time.perf_counter()
         # rank 0 writes it: every rank shares the outcome (a full disk ends them together)
         parallel.agree(self.comm, lambda: self.checkpoint_export.write(
-            self.factory, self.disc, self.state.to_dict()))
+            self.factory, self.disc, {**self.state.to_dict(), "run": self.identity}))
         self.timings["output"] += time.perf_counter() - t0
 
     def _remesh(self, reason: str) -> None:
@@ -480,6 +494,42 @@ class Simulation:
         self.info.update(status=status, summary=summary, timings=self.timings)
         self.info.write()
         return summary
+
+
+def config_fingerprint(cfg: Config) -> str:
+    """Hash of the config without the keys a resume may change (``io.rundir.RESUMABLE_KEYS``)."""
+    import hashlib
+    import json
+
+    from dpcollapse.io.rundir import RESUMABLE_KEYS
+
+    data = config_to_dict(cfg)
+    for key in RESUMABLE_KEYS:
+        section, name = key.split(".")
+        data.get(section, {}).pop(name, None)
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def check_identity(stored: dict | None, mine: dict, run_dir: Path) -> str:
+    """The run id to continue under: the checkpoint's, when it was written by this run
+    (same config fingerprint, and the run id run.json names). A checkpoint of another run
+    (copied in) is ConfigError naming both; one older than fingerprints is trusted."""
+    import json
+
+    if not stored:
+        log.warning("the checkpoint predates run fingerprints: it is trusted to be this run's")
+        return mine["run_id"]
+    try:
+        owner = json.loads((run_dir / "run.json").read_text()).get("run_id")
+    except (OSError, ValueError, AttributeError):
+        owner = None
+    if stored.get("fingerprint") != mine["fingerprint"] or (owner and stored.get("run_id") != owner):
+        raise ConfigError(
+            f"--resume: the checkpoint in {run_dir} belongs to another run (run "
+            f"{stored.get('run_id')}, config fingerprint {stored.get('fingerprint')}) than this "
+            f"one (run {owner or 'unknown'}, config fingerprint {mine['fingerprint']}): was it "
+            "copied in? Start the run again with --overwrite")
+    return stored.get("run_id") or mine["run_id"]
 
 
 def _finite(value: float) -> float | None:

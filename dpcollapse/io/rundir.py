@@ -26,6 +26,7 @@ import errno
 import fcntl
 import os
 import platform
+import re
 import shutil
 from pathlib import Path
 from typing import Any
@@ -44,6 +45,8 @@ RESUMABLE_KEYS = ("time.end_time", "time.max_steps", "time.output_every",
                   "time.checkpoint_every", "time.rest_speed", "time.rest_duration",
                   "output.directory")
 LOCK_NAME = ".lock"
+#: The names a run writes inside RUN_DIRS (XDMF steps, VTX series and their temporaries).
+_RUN_STEP = re.compile(r"^(step_\d{6,}\.(xdmf|h5)(\.tmp)?|[\w.-]*\.bp(\.tmp)?)$")
 
 
 def holds_run(run_dir: Path) -> bool:
@@ -68,7 +71,24 @@ def check_location(run_dir: Path | str) -> Path:
     for parent in [path, *path.parents]:
         if parent.exists() and not parent.is_dir():
             raise ConfigError(f"--out = {text}: {parent} is a file, not a directory")
+    _refuse_shared_folder(path, text)
     return path
+
+
+def _refuse_shared_folder(path: Path, text: str) -> None:
+    """A run directory of its own: never the root, the home directory or the working
+    directory itself (a run writes fields/, and --overwrite removes what a run wrote)."""
+    try:
+        resolved = path.expanduser().resolve()
+    except (OSError, RuntimeError):
+        return
+    shared = {Path("/"): "the root directory", Path.cwd().resolve(): "the working directory"}
+    home = os.environ.get("HOME")
+    if home:
+        shared[Path(home).resolve()] = "the home directory"
+    if resolved in shared:
+        raise ConfigError(f"--out = {text}: is {shared[resolved]}; a run needs a directory of "
+                          "its own (e.g. runs/NAME)")
 
 
 def _existing_ancestor(path: Path) -> Path:
@@ -138,10 +158,24 @@ class RunDirectory:
         self._lock_fd = fd
 
     def _remove_run(self) -> None:
+        """Remove the files a run writes, and only those: in fields/ and vtx/ the step
+        files (``step_NNNNNN.xdmf/.h5``, ``*.bp``); a folder is removed only once empty."""
         for name in RUN_FILES:
             (self.path / name).unlink(missing_ok=True)
         for name in RUN_DIRS:
-            shutil.rmtree(self.path / name, ignore_errors=True)
+            folder = self.path / name
+            if not folder.is_dir():
+                continue
+            for item in folder.iterdir():
+                if _RUN_STEP.match(item.name):
+                    if item.is_dir() and not item.is_symlink():
+                        shutil.rmtree(item, ignore_errors=True)
+                    else:
+                        item.unlink(missing_ok=True)
+            try:
+                folder.rmdir()
+            except OSError:          # something the run did not write is left in it
+                pass
         for tmp in self.path.glob("*.tmp"):
             tmp.unlink(missing_ok=True)
 

@@ -41,12 +41,13 @@ def write_json_atomic(path: Path, data: dict) -> None:
 class RunInfo:
     """Collects what a run did and rewrites ``run.json`` atomically on rank 0."""
 
-    def __init__(self, path: Path, comm, config: dict):
+    def __init__(self, path: Path, comm, config: dict, run_id: str | None = None):
         self.path = Path(path)
         self.rank = comm.rank
         self.started = time.time()
         self.data = {
             "status": "running",
+            "run_id": run_id,
             "versions": versions(),
             "mpi_size": comm.size,
             "host": platform.node(),

@@ -355,20 +355,54 @@ class XDMFTimeSeries:
         return int(match.group(1)), float(time.get("Value"))
 
     def _drop_missing_steps(self) -> None:
-        """Steps whose HDF5 file is gone (deleted by hand, a disk fault) leave the master,
-        which is rewritten: it must never reference a file that does not exist."""
+        """Steps whose HDF5 data cannot be read (a file deleted by hand, truncated by a
+        crash or a full disk, a dataset missing or of another shape than the master says)
+        leave the master, which is rewritten: it must never reference data that is not there."""
         keep = []
         for grid, (index, t) in zip(self._grids, self._steps):
-            files = {(item.text or "").strip().split(":")[0] for item in grid.iter("DataItem")}
-            if all((self.master.parent / f).exists() for f in files if f):
+            problem = self._unreadable(grid)
+            if problem is None:
                 keep.append((grid, (index, t)))
             else:
-                log.warning("%s: step %d (t = %g s) refers to a missing file: dropped",
-                            self.master.name, index, t)
+                log.warning("%s: step %d (t = %g s): %s: dropped", self.master.name, index, t,
+                            problem)
         if len(keep) != len(self._grids):
             self._grids = [g for g, _ in keep]
             self._steps = [s for _, s in keep]
             self._write_master()
+
+    def _unreadable(self, grid: ET.Element) -> str | None:
+        """What is wrong with the HDF5 data a master grid references (None: all readable,
+        of the shapes its ``Dimensions`` state)."""
+        files: dict[str, object] = {}
+        try:
+            for item in grid.iter("DataItem"):
+                if item.get("Format") != "HDF":
+                    continue
+                fname, _, h5path = (item.text or "").strip().partition(":")
+                path = self.master.parent / fname
+                if fname not in files:
+                    if not path.exists():
+                        return f"{fname} is missing"
+                    try:
+                        files[fname] = h5py.File(path, "r")
+                    except OSError as exc:
+                        return f"{fname} cannot be read ({' '.join(str(exc).split())[:80]})"
+                data = files[fname].get(h5path)
+                if data is None:
+                    return f"{fname} has no {h5path}"
+                dims = tuple(int(d) for d in (item.get("Dimensions") or "").split())
+                if dims and tuple(data.shape) != dims:
+                    return f"{fname}:{h5path} has shape {tuple(data.shape)}, not {dims}"
+                try:
+                    if data.shape and data.shape[0]:
+                        data[-1]     # the last chunk is where a truncated file ends
+                except (OSError, IndexError) as exc:
+                    return f"{fname}:{h5path} cannot be read ({exc})"
+        finally:
+            for f in files.values():
+                f.close()
+        return None
 
     def _read_master(self, path: Path) -> list[ET.Element]:
         root = ET.parse(path).getroot()
