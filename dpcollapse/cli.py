@@ -189,6 +189,12 @@ def summary(cfg: Config, source: Path | str | None = None) -> str:
         lines[-2] = (f"  time: steps of at most {t.dt:g} s (the CFL limit rules below it), "
                      f"end {t.end_time:g} s")
         return "\n".join(lines)
+    if cfg.model.name == "two_phase":
+        from dpcollapse.config import MEMORY_PER_CELL, box_cells
+
+        cells = box_cells(cfg.model.box_length, cfg.model.box_height, g.mesh_size)
+        lines.insert(2, f"  two-phase box {cfg.model.box_length:g} x {cfg.model.box_height:g} m: "
+                        f"about {cells:.3g} cells (about {cells * MEMORY_PER_CELL / 1e6:.3g} MB)")
     if cfg.numerics.method == "augmented_lagrangian":
         from dpcollapse.models.stokes.augmented import augmented_settings
 

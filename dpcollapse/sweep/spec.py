@@ -35,10 +35,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from dpcollapse.config import config_to_dict, load_config
+from dpcollapse.config import config_to_dict, load_config, parse_input_yaml, read_input_text
 from dpcollapse.errors import ConfigError
 from dpcollapse.sweep.naming import case_names, is_safe_name, yaml_value
 
@@ -265,16 +264,8 @@ def load_sweep(path: str | Path, extra: tuple[str, ...] = ()) -> Sweep:
     """Read and validate a sweep file; ``extra`` are ``section.key=value`` overrides given
     on the command line for every case (after the file's ``set``). Raises ConfigError."""
     path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"sweep file {path}: not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"sweep file {path}: cannot be read ({exc.__class__.__name__})") from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark else ""
-        raise ConfigError(f"sweep file {path}: YAML syntax error{where}") from None
+    # the config loader's rules: a regular file of at most 1 MB, a key twice refused
+    data = parse_input_yaml(read_input_text(path, "sweep file"), path, "sweep file")
     if not isinstance(data, dict):
         raise ConfigError(f"sweep file {path}: must be a mapping with at least 'base'")
     try:
