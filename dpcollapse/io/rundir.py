@@ -138,24 +138,7 @@ class RunDirectory:
             raise
 
     def _lock(self) -> None:
-        lock_path = self.path / LOCK_NAME
-        try:
-            fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o644)
-        except OSError as exc:
-            raise ConfigError(f"--out = {self.path}: cannot create {LOCK_NAME} "
-                              f"({exc.strerror})") from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError as exc:
-            holder = _read_holder(fd)
-            os.close(fd)
-            if exc.errno in (errno.EWOULDBLOCK, errno.EACCES, errno.EAGAIN):
-                raise ConfigError(f"--out = {self.path} is in use by another run ({holder}): "
-                                  "wait for it to end, or choose another --out") from None
-            raise
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{platform.node()} pid {os.getpid()}\n".encode())
-        self._lock_fd = fd
+        self._lock_fd = take_lock(self.path, LOCK_NAME, "run")
 
     def _remove_run(self) -> None:
         """Remove the files a run writes, and only those: in fields/ and vtx/ the step
@@ -213,6 +196,29 @@ class RunDirectory:
 
     def __exit__(self, *exc) -> None:
         self.release()
+
+
+def take_lock(folder: Path, name: str, holder_kind: str) -> int:
+    """An exclusive ``flock`` on ``folder/name`` (the file notes this host and pid); the
+    descriptor (close it to release). ConfigError naming the holder when another process
+    (a ``holder_kind``: run, sweep) has it."""
+    lock_path = Path(folder) / name
+    try:
+        fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as exc:
+        raise ConfigError(f"--out = {folder}: cannot create {name} ({exc.strerror})") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as exc:
+        holder = _read_holder(fd)
+        os.close(fd)
+        if exc.errno in (errno.EWOULDBLOCK, errno.EACCES, errno.EAGAIN):
+            raise ConfigError(f"--out = {folder} is in use by another {holder_kind} ({holder}): "
+                              "wait for it to end, or choose another --out") from None
+        raise
+    os.ftruncate(fd, 0)
+    os.write(fd, f"{platform.node()} pid {os.getpid()}\n".encode())
+    return fd
 
 
 def claim_on_root(comm, run_dir, config: dict[str, Any], mode: str) -> RunDirectory:

@@ -18,7 +18,12 @@ log = logging.getLogger("dpcollapse.sweep")
 
 
 def _fail(exc: DpcollapseError) -> int:
-    click.echo("dpcollapse: error: " + " ".join(str(exc).split()), err=True)
+    """The one line, from the first rank only when several were launched (under a plain
+    ``mpirun -n N dpcollapse sweep`` every rank refuses; the line is printed once)."""
+    from dpcollapse.sweep.executors import launched_rank
+
+    if launched_rank() == 0:
+        click.echo("dpcollapse: error: " + " ".join(str(exc).split()), err=True)
     return exc.exit_code
 
 

@@ -256,6 +256,17 @@ def _mpi_pool():
     return MPIPoolExecutor(), MPI.COMM_WORLD.Get_size() - 1
 
 
+def launched_rank() -> int:
+    """This process's rank among those an MPI launcher started (0 when none), from the
+    launcher's variables (MPI is not initialized for this)."""
+    for var in RANK_VARIABLES:
+        try:
+            return int(os.environ[var])
+        except (KeyError, ValueError):
+            continue
+    return 0
+
+
 def launched_ranks() -> int:
     """Number of ranks an MPI launcher started this process among (1 when none)."""
     for var in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE"):
@@ -307,6 +318,18 @@ def run_sweep(sweep: Sweep, out: Path, executor: str = "local", jobs: int = 1,
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    from dpcollapse.io.rundir import take_lock
+
+    # one sweep at a time on a directory (a second one took the first's running cases,
+    # locked by their runs, for failures)
+    lock = take_lock(out, ".sweep.lock", "sweep")
+    try:
+        return _run_sweep(sweep, out, executor, jobs, retry_failed)
+    finally:
+        os.close(lock)
+
+
+def _run_sweep(sweep: Sweep, out: Path, executor: str, jobs: int, retry_failed: bool) -> list[dict]:
     t0 = time.perf_counter()
     if executor == "mpi":
         pool, workers = _mpi_pool()
