@@ -258,9 +258,29 @@ def mesh(config: Path, overrides: tuple[str, ...], out: Path | None) -> int:
         raise ConfigError(f"model.name = {cfg.model.name}: the depth-averaged model has no 2D mesh "
                           f"(its grid is model.n_cells = {cfg.model.n_cells} cells); "
                           "dpcollapse mesh needs model.name = stokes")
+    path = Path(out or Path("meshes") / f"{config.stem}.msh")
+    _check_msh_destination(path)
     write_msh = _lazy("dpcollapse.scenes.registry", "write_msh")
-    write_msh(cfg, Path(out or Path("meshes") / f"{config.stem}.msh"))
+    try:
+        write_msh(cfg, path)
+    except Exception as exc:   # gmsh raises a bare Exception ("Unable to open file ...")
+        if "Unable to open file" not in str(exc):
+            raise
+        raise ConfigError(f"--out = {path}: cannot be written ({exc})") from None
     return 0
+
+
+def _check_msh_destination(path: Path) -> None:
+    """``mesh --out``: a .msh file in a folder that exists or can be made and is writable."""
+    if path.suffix != ".msh":
+        raise ConfigError(f"--out = {path}: must end in .msh (gmsh writes the format its "
+                          "extension names)")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out = {path}: cannot create {path.parent} ({exc.strerror})") from None
+    if not os.access(path.parent, os.W_OK | os.X_OK) or (path.exists() and not path.is_file()):
+        raise ConfigError(f"--out = {path}: cannot be written")
 
 
 def _parse_times(values: Sequence[str]) -> list[float] | None:
@@ -307,6 +327,11 @@ def _validation(name: str, doc: str, quick_help: str) -> None:
     def command(config: Path, out: Path, quick: bool) -> int:
         if not config.is_file():
             raise ConfigError(f"--config = {config}: file not found")
+        shape = load_config(config).geometry.shape
+        if shape != "layer":   # a collapse config ran for minutes and compared nothing
+            raise ConfigError(f"--config = {config}: geometry.shape = {shape}; validate {name} "
+                              f"needs a periodic layer (geometry.shape = layer), e.g. "
+                              f"configs/{name}.yaml")
         run = _lazy(f"dpcollapse.validation.{name}", f"validate_{name}")
         run(config, out, quick=quick, log=lambda msg: _rank() == 0 and click.echo(msg))
         if _rank() == 0:

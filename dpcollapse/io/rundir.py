@@ -64,6 +64,13 @@ def check_location(run_dir: Path | str) -> Path:
         max_name = os.pathconf(_existing_ancestor(path), "PC_NAME_MAX")
     except (OSError, ValueError):
         max_name = 255
+    try:
+        max_path = os.pathconf(_existing_ancestor(path), "PC_PATH_MAX")
+    except (OSError, ValueError):
+        max_path = 4096
+    if len(os.fsencode(str(path.absolute()))) >= max_path:
+        raise ConfigError(f"--out = {text[:60]}...: the path has {len(os.fsencode(text))} bytes, "
+                          f"more than the file system allows ({max_path})")
     for part in path.parts:
         if len(part.encode()) > max_name:
             raise ConfigError(f"--out = {text[:60]}...: a path component has {len(part.encode())} "
