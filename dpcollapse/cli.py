@@ -110,6 +110,8 @@ class _Group(click.Group):
             where = f" ({exc.filename})" if exc.filename else ""
             raise OutputError(f"I/O failure: {exc.strerror or exc}{where}") from None
         except Exception as exc:
+            if _signalled:   # e.g. "ImportError: initialization failed": SIGTERM hit an import
+                raise Interrupted("interrupted") from None
             log = _write_traceback()
             raise InternalError(f"internal error: {type(exc).__name__}: {exc} (a bug; traceback "
                                 f"in {log})") from None
@@ -574,7 +576,14 @@ def main(argv: list[str] | None = None) -> int:
     return rv if isinstance(rv, int) else 0
 
 
+#: Set once SIGINT/SIGTERM arrived: an error after it is the interrupt's (a C extension's
+#: import interrupted by the signal fails with "ImportError: initialization failed").
+_signalled = False
+
+
 def _interrupt(signum, frame):
+    global _signalled
+    _signalled = True
     raise KeyboardInterrupt
 
 
@@ -582,7 +591,7 @@ def _interrupt_on_signals() -> None:
     """SIGINT and SIGTERM raise KeyboardInterrupt (exit 130 with one line)."""
     import signal
 
-    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGINT, _interrupt)
     signal.signal(signal.SIGTERM, _interrupt)
 
 
