@@ -584,6 +584,14 @@ _signalled = False
 def _interrupt(signum, frame):
     global _signalled
     _signalled = True
+    if frame is not None and frame.f_code.co_filename.startswith("<frozen importlib"):
+        # inside the import machinery's module locks an exception here is printed as a
+        # traceback: deliver the signal again a moment later, outside them
+        import signal
+        import threading
+
+        threading.Timer(0.01, signal.raise_signal, (signum,)).start()
+        return
     raise KeyboardInterrupt
 
 
