@@ -28,7 +28,8 @@ from dpcollapse.errors import (  # noqa: E402
     Interrupted,
     OutputError,
 )
-from dpcollapse.parallel import end_together, install_excepthook  # noqa: E402
+from dpcollapse import parallel  # noqa: E402
+from dpcollapse.parallel import PeerFailed, end_together, install_excepthook  # noqa: E402
 
 try:  # an editable install made before dpcollapse/__init__.py existed sees a namespace package
     from dpcollapse import __version__
@@ -109,6 +110,8 @@ class _Group(click.Group):
             where = f" ({exc.filename})" if exc.filename else ""
             raise OutputError(f"I/O failure: {exc.strerror or exc}{where}") from None
         except Exception as exc:
+            if _signalled:   # e.g. "ImportError: initialization failed": SIGTERM hit an import
+                raise Interrupted("interrupted") from None
             log = _write_traceback()
             raise InternalError(f"internal error: {type(exc).__name__}: {exc} (a bug; traceback "
                                 f"in {log})") from None
@@ -188,6 +191,12 @@ def summary(cfg: Config, source: Path | str | None = None) -> str:
         lines[-2] = (f"  time: steps of at most {t.dt:g} s (the CFL limit rules below it), "
                      f"end {t.end_time:g} s")
         return "\n".join(lines)
+    if cfg.model.name == "two_phase":
+        from dpcollapse.config import MEMORY_PER_CELL, box_cells
+
+        cells = box_cells(cfg.model.box_length, cfg.model.box_height, g.mesh_size)
+        lines.insert(2, f"  two-phase box {cfg.model.box_length:g} x {cfg.model.box_height:g} m: "
+                        f"about {cells:.3g} cells (about {cells * MEMORY_PER_CELL / 1e6:.3g} MB)")
     if cfg.numerics.method == "augmented_lagrangian":
         from dpcollapse.models.stokes.augmented import augmented_settings
 
@@ -251,9 +260,29 @@ def mesh(config: Path, overrides: tuple[str, ...], out: Path | None) -> int:
         raise ConfigError(f"model.name = {cfg.model.name}: the depth-averaged model has no 2D mesh "
                           f"(its grid is model.n_cells = {cfg.model.n_cells} cells); "
                           "dpcollapse mesh needs model.name = stokes")
+    path = Path(out or Path("meshes") / f"{config.stem}.msh")
+    _check_msh_destination(path)
     write_msh = _lazy("dpcollapse.scenes.registry", "write_msh")
-    write_msh(cfg, Path(out or Path("meshes") / f"{config.stem}.msh"))
+    try:
+        write_msh(cfg, path)
+    except Exception as exc:   # gmsh raises a bare Exception ("Unable to open file ...")
+        if "Unable to open file" not in str(exc):
+            raise
+        raise ConfigError(f"--out = {path}: cannot be written ({exc})") from None
     return 0
+
+
+def _check_msh_destination(path: Path) -> None:
+    """``mesh --out``: a .msh file in a folder that exists or can be made and is writable."""
+    if path.suffix != ".msh":
+        raise ConfigError(f"--out = {path}: must end in .msh (gmsh writes the format its "
+                          "extension names)")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ConfigError(f"--out = {path}: cannot create {path.parent} ({exc.strerror})") from None
+    if not os.access(path.parent, os.W_OK | os.X_OK) or (path.exists() and not path.is_file()):
+        raise ConfigError(f"--out = {path}: cannot be written")
 
 
 def _parse_times(values: Sequence[str]) -> list[float] | None:
@@ -300,6 +329,11 @@ def _validation(name: str, doc: str, quick_help: str) -> None:
     def command(config: Path, out: Path, quick: bool) -> int:
         if not config.is_file():
             raise ConfigError(f"--config = {config}: file not found")
+        shape = load_config(config).geometry.shape
+        if shape != "layer":   # a collapse config ran for minutes and compared nothing
+            raise ConfigError(f"--config = {config}: geometry.shape = {shape}; validate {name} "
+                              f"needs a periodic layer (geometry.shape = layer), e.g. "
+                              f"configs/{name}.yaml")
         run = _lazy(f"dpcollapse.validation.{name}", f"validate_{name}")
         run(config, out, quick=quick, log=lambda msg: _rank() == 0 and click.echo(msg))
         if _rank() == 0:
@@ -516,10 +550,11 @@ def _error(message: str) -> None:
         click.echo("dpcollapse: error: " + " ".join(str(message).split()), err=True)
 
 
-def _fail(message: str, exit_code: int) -> int:
-    """Report an error and return its exit status. Under MPI every rank must be failing
-    too; a rank that fails alone aborts the whole job instead (:mod:`dpcollapse.parallel`)."""
-    end_together(exit_code, " ".join(str(message).split()))
+def _fail(message: str, exit_code: int, peer: bool = False) -> int:
+    """Report an error and return its exit status. Under MPI the other ranks are told
+    (``peer``: the error is another rank's) and must end too; when one cannot, the whole
+    job is aborted instead (:mod:`dpcollapse.parallel`)."""
+    end_together(exit_code, " ".join(str(message).split()), peer=peer)
     _error(message)
     return exit_code
 
@@ -528,9 +563,11 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line on ``argv`` (default: sys.argv[1:]) and return the exit status."""
     _setup_logging()
     try:
+        parallel.start()   # the failure protocol's communicator (every rank, same point)
         rv = cli.main(args=argv, prog_name="dpcollapse", standalone_mode=False)
     except DpcollapseError as exc:
-        return _fail(str(exc) or exc.__class__.__name__, exc.exit_code)
+        return _fail(str(exc) or exc.__class__.__name__, exc.exit_code,
+                     peer=isinstance(exc, PeerFailed))
     except click.UsageError as exc:
         hint = f" (see '{exc.ctx.command_path} --help')" if exc.ctx else ""
         return _fail(exc.format_message() + hint, exc.exit_code)
@@ -541,7 +578,22 @@ def main(argv: list[str] | None = None) -> int:
     return rv if isinstance(rv, int) else 0
 
 
+#: Set once SIGINT/SIGTERM arrived: an error after it is the interrupt's (a C extension's
+#: import interrupted by the signal fails with "ImportError: initialization failed").
+_signalled = False
+
+
 def _interrupt(signum, frame):
+    global _signalled
+    _signalled = True
+    if frame is not None and frame.f_code.co_filename.startswith("<frozen importlib"):
+        # inside the import machinery's module locks an exception here is printed as a
+        # traceback: deliver the signal again a moment later, outside them
+        import signal
+        import threading
+
+        threading.Timer(0.01, signal.raise_signal, (signum,)).start()
+        return
     raise KeyboardInterrupt
 
 
@@ -549,7 +601,7 @@ def _interrupt_on_signals() -> None:
     """SIGINT and SIGTERM raise KeyboardInterrupt (exit 130 with one line)."""
     import signal
 
-    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGINT, _interrupt)
     signal.signal(signal.SIGTERM, _interrupt)
 
 
@@ -560,8 +612,10 @@ def entry() -> None:
     install_excepthook()
     code = main()
     xdmf = sys.modules.get("dpcollapse.io.xdmf")
-    if xdmf is not None and xdmf.hdf5_write_failed:
+    if code and xdmf is not None and xdmf.hdf5_write_failed:
         _exit_without_finalizers(code)
+    if code and parallel.out_of_step():
+        _leave_out_of_step(code)
     sys.exit(code)
 
 
@@ -575,6 +629,19 @@ def _exit_without_finalizers(code: int) -> None:
     if world is not None and world.Is_initialized() and not world.Is_finalized() \
             and world.COMM_WORLD.size > 1:
         world.COMM_WORLD.Abort(code)
+    os._exit(code)
+
+
+def _leave_out_of_step(code: int) -> None:
+    """After an error the ranks stopped at different calls (``parallel.out_of_step``):
+    PETSc's terminator (a collective clean-up) would wait forever, so leave without it;
+    MPI itself is finalized (the ranks have met in ``parallel.end_together``), so mpirun
+    passes the status on."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    MPI = sys.modules.get("mpi4py.MPI")
+    if MPI is not None and MPI.Is_initialized() and not MPI.Is_finalized():
+        MPI.Finalize()
     os._exit(code)
 
 

@@ -12,6 +12,7 @@ Public API: :func:`load_config`, :func:`validate_config`, :func:`with_overrides`
 from __future__ import annotations
 
 import math
+import os
 from difflib import get_close_matches
 from pathlib import Path
 from typing import Annotated, Any, Literal, Sequence
@@ -326,7 +327,7 @@ class MaterialConfig(_Section):
     density: Number = _f(1550.0, "kg/m^3", "Bulk density rho", gt=0)
     viscosity: Number = _f(1.0, "Pa s", "Newtonian viscosity eta (drucker_prager)", ge=0)
     friction_angle: Number = _f(25.5, "deg", "Internal friction angle; mu_s = tan", gt=0, lt=90)
-    gravity: Number = _f(9.81, "m/s^2", "Magnitude g of gravity", gt=0)
+    gravity: Number = _f(9.81, "m/s^2", "Magnitude g of gravity", gt=0, le=1000)
     cohesion: Number = _f(0.0, "Pa", "Cohesion kappa0: yield stress kappa0 + mu_s p in shear", ge=0)
     friction_angle_2: Number = _f(
         31.0, "deg", "mu_i: friction angle at large I; mu_2 = tan (must exceed friction_angle)",
@@ -501,6 +502,16 @@ class StokesModel(_Section):
         "fluid on a fixed box; docs/model.md)")
 
 
+#: Most cells of a grid or mesh (1D grid, two-phase box): about 1 GB of state at the
+#: two-phase model's cost per cell (MEMORY_PER_CELL); larger is refused before any array exists.
+MAX_GRID_CELLS = 1_000_000
+#: Bytes per cell of the two-phase box mesh (P2/P1 flow, DG0 fraction, LU fill-in), an
+#: estimate for the limit above and the number ``dpcollapse check`` prints.
+MEMORY_PER_CELL = 1000
+#: Largest coordinate of a domain end [m].
+MAX_EXTENT = 1.0e5
+
+
 class SavageHutterModel(_Section):
     """The depth-averaged Savage–Hutter model on a 1D grid along the bed (x down the slope
     geometry.bed_angle): the scene's polygon as initial thickness, the basal friction from
@@ -529,10 +540,13 @@ class SavageHutterModel(_Section):
     h_dry: Number = _f(1.0e-10, "m", "Thinner cells carry no momentum (dry)", ge=0)
     front_threshold: Number = _f(
         1.0e-3, "m", "Thickness that defines the front (furthest x where h crosses it)", gt=0)
-    n_cells: Count = _f(800, "", "Number of finite-volume cells on [x_min, x_max]", ge=2)
-    x_min: Number = _f(0.0, "m", "Upslope end of the 1D domain (the wall of the scene is at x = 0)")
+    n_cells: Count = _f(800, "", "Number of finite-volume cells on [x_min, x_max]", ge=2,
+                        le=MAX_GRID_CELLS)
+    x_min: Number = _f(0.0, "m", "Upslope end of the 1D domain (the wall of the scene is at x = 0)",
+                       ge=-MAX_EXTENT, le=MAX_EXTENT)
     x_max: Number | None = _f(
-        None, "m", "Downslope end of the 1D domain; null: base_length + 20 height")
+        None, "m", "Downslope end of the 1D domain; null: base_length + 20 height",
+        ge=-MAX_EXTENT, le=MAX_EXTENT)
     left: Literal["wall", "open"] = _f(
         "wall", "", "Upslope end: wall (reflective wall or symmetry plane) or open (outflow)")
     right: Literal["wall", "open"] = _f("open", "", "Downslope end: wall or open")
@@ -543,6 +557,11 @@ class SavageHutterModel(_Section):
             raise ConfigError(f"model.x_max = {_fmt(self.x_max)}: must be > model.x_min = "
                               f"{_fmt(self.x_min)} (m)")
         return self
+
+
+def box_cells(length: float, height: float, mesh_size: float) -> float:
+    """Estimated triangles of a box meshed at ``mesh_size`` (two per square of side h)."""
+    return 2.0 * length * height / mesh_size ** 2
 
 
 class TwoPhaseModel(_Section):
@@ -728,6 +747,32 @@ class Config(_Section):
         if m.box_length < 2 * g.mesh_size or m.box_height < 2 * g.mesh_size:
             raise ConfigError(f"geometry.mesh_size = {_fmt(g.mesh_size)}: must be at most half "
                               "of model.box_length and model.box_height with model.name = two_phase")
+        cells = box_cells(m.box_length, m.box_height, g.mesh_size)
+        if cells > MAX_GRID_CELLS:
+            raise ConfigError(
+                f"model.box_length = {_fmt(m.box_length)}, model.box_height = {_fmt(m.box_height)}: "
+                f"about {cells:.3g} cells at geometry.mesh_size = {_fmt(g.mesh_size)} m (about "
+                f"{cells * MEMORY_PER_CELL / 1e9:.3g} GB), more than {MAX_GRID_CELLS}; a smaller "
+                "box or a larger mesh size")
+        self._unused_numerics("two_phase", allowed=("regularized", "picard"))
+
+    def _unused_numerics(self, model: str, allowed: tuple[str, ...] = ()) -> None:
+        """Refuse numerics keys set to a non-default value that ``model`` does not read
+        (``allowed``: the method and nonlinear solver values it does run)."""
+        n, default = self.numerics, NumericsConfig()
+        if model == "two_phase":
+            for key in ("method", "nonlinear_solver"):
+                if getattr(n, key) not in allowed:
+                    raise ConfigError(f"numerics.{key} = {getattr(n, key)!r}: model.name = "
+                                      f"two_phase runs the regularized Picard iteration only; "
+                                      f"must be {getattr(default, key)!r}")
+            return
+        changed = sorted(k for k in n.model_fields_set if getattr(n, k) != getattr(default, k))
+        if changed:
+            raise ConfigError(f"numerics.{changed[0]} = {_fmt(getattr(n, changed[0]))}: not used by "
+                              f"model.name = {model} (its keys are under model.*); remove "
+                              + ("it" if len(changed) == 1 else
+                                 f"it and numerics.{', numerics.'.join(changed[1:])}"))
 
     def _depth_averaged(self) -> None:
         """What the 1D model cannot represent is refused (one line each)."""
@@ -750,6 +795,7 @@ class Config(_Section):
                               f"<= material.friction_angle = {_fmt(phi)} (deg) with "
                               "model.earth_pressure = savage_hutter (K_act/pass is imaginary for "
                               "delta > phi)")
+        self._unused_numerics("savage_hutter")
         if m.x_min > 0 or x_max < self.geometry.base_length:
             raise ConfigError(f"model.x_min = {_fmt(m.x_min)}, model.x_max = {_fmt(m.x_max)}: "
                               f"the 1D domain must contain the mass [0, {self.geometry.base_length:g}] m")
@@ -924,27 +970,67 @@ def _apply_overrides(data: dict[str, Any], overrides: Sequence[str]) -> dict[str
     return data
 
 
-def _read_yaml(path: Path) -> Any:
-    """The parsed YAML document at ``path``; every failure is one line."""
+#: Largest config or sweep file read [bytes]: a config is a few kB; a larger file (a
+#: 50 MB list) would take minutes to parse.
+MAX_INPUT_BYTES = 1_000_000
+
+
+def read_input_text(path: Path, what: str = "config file") -> str:
+    """The text of a config or sweep file: a regular file (not a FIFO or a device such as
+    /dev/zero, which would block or never end) of at most MAX_INPUT_BYTES, checked before
+    reading; every failure is one line (ConfigError)."""
+    import stat
+
     try:
-        text = path.read_text(encoding="utf-8")
+        info = os.stat(path)
     except FileNotFoundError:
-        raise ConfigError(f"config file {path}: not found") from None
-    except IsADirectoryError:
-        raise ConfigError(f"config file {path}: is a directory, not a file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        why = exc.__class__.__name__
-        raise ConfigError(f"config file {path}: cannot be read ({why})") from None
+        raise ConfigError(f"{what} {path}: not found") from None
+    except OSError as exc:
+        raise ConfigError(f"{what} {path}: cannot be read ({exc.strerror})") from None
+    if stat.S_ISDIR(info.st_mode):
+        raise ConfigError(f"{what} {path}: is a directory, not a file")
+    if not stat.S_ISREG(info.st_mode):
+        raise ConfigError(f"{what} {path}: not a regular file (a pipe or a device); "
+                          "give a YAML file")
+    if info.st_size > MAX_INPUT_BYTES:
+        raise ConfigError(f"{what} {path}: {info.st_size} bytes, more than the "
+                          f"{MAX_INPUT_BYTES} a {what.split()[0]} may have")
+    try:
+        with open(path, "rb") as f:
+            data = f.read(MAX_INPUT_BYTES + 1)   # the file may have grown since the stat
+    except OSError as exc:
+        raise ConfigError(f"{what} {path}: cannot be read ({exc.strerror})") from None
+    if len(data) > MAX_INPUT_BYTES:
+        raise ConfigError(f"{what} {path}: more than {MAX_INPUT_BYTES} bytes")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ConfigError(f"{what} {path}: cannot be read (not UTF-8 text)") from None
+
+
+def parse_input_yaml(text: str, path: Path, what: str = "config file") -> Any:
+    """Parse a config or sweep file's YAML: a key twice in one mapping refused, every
+    failure one line (ConfigError)."""
     try:
         return yaml.load(text, Loader=_UniqueKeyLoader)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         problem = getattr(exc, "problem", None) or "invalid YAML"
-        raise ConfigError(f"config file {path}: YAML syntax error{where}: {problem}") from None
+        raise ConfigError(f"{what} {path}: YAML syntax error{where}: {problem}") from None
     except RecursionError:
-        raise ConfigError(f"config file {path}: nested too deeply (a config has two levels: "
-                          "section and key)") from None
+        raise ConfigError(f"{what} {path}: nested too deeply") from None
+
+
+def _read_yaml(path: Path) -> Any:
+    """The parsed YAML document at ``path``; every failure is one line."""
+    text = read_input_text(path)
+    try:
+        return parse_input_yaml(text, path)
+    except ConfigError as exc:
+        if str(exc).endswith("nested too deeply"):
+            raise ConfigError(f"{exc} (a config has two levels: section and key)") from None
+        raise
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):

@@ -1,12 +1,27 @@
 """Ending an MPI job together: an error on one rank must never leave another rank spinning.
 
 A rank that fails while the others wait in a collective call (an allreduce, a solve) would
-otherwise hang the job until its wall-time limit; and with Open MPI 5 a rank that exits
-normally blocks in ``MPI_Finalize`` waiting for the others. So a failing rank first waits
-at a *non-blocking* barrier: if every rank arrives there within a grace time (all ranks
-failed together, the usual case: a config error, a solver that did not converge), the job
-ends normally with the error's exit status; if not, the failing rank aborts the whole job
-with ``MPI_Abort``.
+otherwise hang the job until its wall-time limit. The protocol:
+
+1. **A control communicator** (:func:`start`, a duplicate of ``MPI.COMM_WORLD`` made by
+   every rank at the same point of the command line) carries the failure protocol, so its
+   messages never mix with a collective call left pending on ``COMM_WORLD`` (that mix
+   raised ``MPI_ERR_TRUNCATE`` when SIGTERM hit the ranks at different calls).
+2. **A failing rank notifies the others** (:func:`notify_failure`: a message with its
+   exit status and its one-line error to every rank), then waits at a non-blocking barrier
+   on the control communicator (:func:`end_together`).
+3. **Failure-aware collective calls** (:func:`allreduce`, :func:`bcast`, :func:`barrier`,
+   :func:`on_root`, :func:`agree`; non-blocking MPI calls polled) watch for that message
+   while they wait and raise :class:`PeerFailed` (the failing rank's status and line),
+   and let Python's signal handlers run (SIGTERM while waiting is an interrupt). The run's
+   own collective points use them: claiming the run directory, the per-step stop check,
+   every write that rank 0 does alone (run.json, config.yaml, diagnostics.csv, the XDMF
+   master, the checkpoint), whose outcome every rank then shares.
+4. When every rank reaches the barrier within the grace time (``DPCOLLAPSE_MPI_GRACE``,
+   default :data:`DEFAULT_GRACE` s), the job ends normally with the error's status and
+   rank 0 prints the line; when one does not (it is inside a solver's own MPI calls, which
+   cannot watch), the failing rank runs the abort hooks (writing run.json as ``failed``)
+   and aborts the whole job with ``MPI_Abort`` and the status.
 
 Nothing here imports mpi4py unless MPI is already in use, so serial commands that never
 touch MPI stay free of it.
@@ -15,23 +30,71 @@ touch MPI stay free of it.
 from __future__ import annotations
 
 import os
+import pickle
 import sys
 import time
 import traceback
+from contextlib import contextmanager
+from typing import Any, Callable
+
+from dpcollapse.errors import DpcollapseError
 
 #: Seconds the failing ranks wait for the others before aborting the job.
-DEFAULT_GRACE = 20.0
+DEFAULT_GRACE = 10.0
 _POLL = 0.01
+#: Tag of the failure notices on the control communicator.
+FAILURE_TAG = 4077
+#: Busy polls of a request before the wait sleeps between polls (keeps fast calls fast).
+_SPINS = 200
+_SLEEP = 0.0005
+
+_control = None                 # the control communicator (start())
+_failure: tuple | None = None   # (rank, exit status, message) once this rank knows of a failure
+_sent: list = []                # pending notices (kept alive until the end)
+_abandoned = False              # a failure-aware wait was left by an exception
+_abort_hooks: list[Callable[[], None]] = []
+
+
+class PeerFailed(DpcollapseError):
+    """Another rank failed: its exit status and one-line message, raised on this rank while
+    it waited in a failure-aware collective call."""
+
+    def __init__(self, rank: int, exit_code: int, message: str):
+        super().__init__(message)
+        self.rank = rank
+        self.exit_code = exit_code
+
+
+def _mpi():
+    return sys.modules["mpi4py.MPI"]
 
 
 def _world():
     """MPI.COMM_WORLD if mpi4py has been imported and MPI initialized, else None."""
     if "mpi4py.MPI" not in sys.modules:
         return None
-    MPI = sys.modules["mpi4py.MPI"]
+    MPI = _mpi()
     if not MPI.Is_initialized() or MPI.Is_finalized():
         return None
     return MPI.COMM_WORLD
+
+
+def several_ranks() -> bool:
+    """Whether this process is one rank of an MPI job of several."""
+    world = _world()
+    return world is not None and world.size > 1
+
+
+def start() -> None:
+    """Create the control communicator (collective over COMM_WORLD: every rank must call
+    it at the same point). A no-op without MPI, on one rank, when already done, and under
+    ``python -m mpi4py.futures`` (the sweep's driver: the other ranks are workers)."""
+    global _control
+    world = _world()
+    if "mpi4py.futures" in sys.modules:   # only the driver (rank 0) runs the command line
+        return
+    if _control is None and world is not None and world.size > 1:
+        _control = world.Dup()
 
 
 def grace_seconds() -> float:
@@ -42,6 +105,157 @@ def grace_seconds() -> float:
         return DEFAULT_GRACE
 
 
+# ----------------------------------------------------------------------------- notices
+def notify_failure(exit_code: int, message: str) -> None:
+    """Tell every other rank that this one is failing (once; not when this rank only
+    learned of another's failure)."""
+    global _failure
+    if _failure is not None or _control is None:
+        return
+    _failure = (_control.rank, exit_code, message)
+    for rank in range(_control.size):
+        if rank != _control.rank:
+            _sent.append(_control.isend((exit_code, message), dest=rank, tag=FAILURE_TAG))
+
+
+def check_peers() -> None:
+    """Raise :class:`PeerFailed` when another rank has reported a failure."""
+    global _failure
+    if _control is None:
+        return
+    MPI = _mpi()
+    status = MPI.Status()
+    if not _control.Iprobe(source=MPI.ANY_SOURCE, tag=FAILURE_TAG, status=status):
+        return
+    rank = status.Get_source()
+    exit_code, message = _control.recv(source=rank, tag=FAILURE_TAG)
+    if _failure is None:
+        _failure = (rank, exit_code, message)
+    raise PeerFailed(rank, exit_code, message)
+
+
+def _drain() -> None:
+    """Receive the notices still queued (the job is ending together)."""
+    if _control is None:
+        return
+    MPI = _mpi()
+    while _control.Iprobe(source=MPI.ANY_SOURCE, tag=FAILURE_TAG):
+        _control.recv(source=MPI.ANY_SOURCE, tag=FAILURE_TAG)
+
+
+def wait(request) -> None:
+    """Complete a non-blocking MPI request, watching for other ranks' failures (raises
+    :class:`PeerFailed`) and letting signal handlers run (an interrupt while waiting)."""
+    global _abandoned
+    spins = 0
+    try:
+        while not request.Test():
+            check_peers()
+            spins += 1
+            if spins > _SPINS:
+                time.sleep(_SLEEP)
+    except BaseException:
+        _abandoned = True     # a collective call left pending: the ranks are out of step
+        raise
+
+
+def out_of_step() -> bool:
+    """Whether this rank learned of another's failure or left a collective call pending:
+    then the ranks stopped at different calls, and no collective terminator (PETSc's) may
+    run at exit."""
+    return _abandoned or (_failure is not None and several_ranks())
+
+
+# ----------------------------------------------------------------------------- collectives
+def barrier(comm) -> None:
+    """A failure-aware barrier."""
+    if comm.size > 1:
+        wait(comm.Ibarrier())
+
+
+def allreduce(comm, value, op=None):
+    """A failure-aware allreduce of one number or bool (``op``: MPI.SUM by default, MAX,
+    MIN, LOR, LAND); returns the same type."""
+    import numpy as np
+
+    MPI = _mpi()
+    op = MPI.SUM if op is None else op
+    if comm.size == 1:
+        return value
+    kind = type(value)
+    if isinstance(value, (bool, np.bool_)):
+        send, kind = np.array([int(value)], dtype=np.int64), bool
+    elif isinstance(value, (int, np.integer)):
+        send = np.array([value], dtype=np.int64)
+    else:
+        send = np.array([value], dtype=np.float64)
+    recv = np.empty_like(send)
+    wait(comm.Iallreduce(send, recv, op=op))
+    return kind(recv[0]) if kind in (bool, int, float) else recv[0]
+
+
+def bcast(comm, obj: Any = None, root: int = 0) -> Any:
+    """A failure-aware broadcast of a picklable object."""
+    import numpy as np
+
+    if comm.size == 1:
+        return obj
+    MPI = _mpi()
+    data = pickle.dumps(obj) if comm.rank == root else b""
+    size = np.array([len(data)], dtype=np.int64)
+    wait(comm.Ibcast(size, root=root))
+    buf = bytearray(data) if comm.rank == root else bytearray(int(size[0]))
+    wait(comm.Ibcast([buf, MPI.BYTE], root=root))
+    return obj if comm.rank == root else pickle.loads(bytes(buf))
+
+
+def on_root(comm, fn: Callable[[], Any]) -> Any:
+    """Run ``fn`` on rank 0 of ``comm`` and share its outcome: every rank returns its
+    result, or raises its exception (an I/O failure of a file rank 0 writes alone ends
+    every rank at the same point)."""
+    result, error = None, None
+    if comm.rank == 0:
+        try:
+            result = fn()
+        except Exception as exc:
+            error = exc
+    if comm.size > 1:
+        result, error = bcast(comm, (result, _picklable(error)), root=0)
+    if error is not None:
+        raise error
+    return result
+
+
+def agree(comm, fn: Callable[[], Any]) -> Any:
+    """Run ``fn`` on every rank; if it raises on any, every rank raises the exception of
+    the lowest failing rank (a failure-aware point of agreement)."""
+    error = None
+    try:
+        result = fn()
+    except Exception as exc:
+        result, error = None, exc
+    if comm.size == 1:
+        if error is not None:
+            raise error
+        return result
+    first = allreduce(comm, comm.rank if error is not None else comm.size, op=_mpi().MIN)
+    if first == comm.size:
+        return result
+    shared = bcast(comm, _picklable(error) if comm.rank == first else None, root=first)
+    raise (error if error is not None else shared)
+
+
+def _picklable(error: BaseException | None) -> BaseException | None:
+    if error is None:
+        return None
+    try:
+        pickle.loads(pickle.dumps(error))
+        return error
+    except Exception:
+        return RuntimeError(f"{type(error).__name__}: {error}")
+
+
+# ----------------------------------------------------------------------------- the end
 def all_arrive(comm, timeout: float) -> bool:
     """True when every rank of ``comm`` reaches this call within ``timeout`` seconds.
 
@@ -60,26 +274,95 @@ def all_arrive(comm, timeout: float) -> bool:
         time.sleep(_POLL)
 
 
+def on_abort(hook: Callable[[int, str], None]) -> Callable[[int, str], None]:
+    """Call ``hook(exit_code, message)`` on this rank just before it ends the job at once
+    (e.g. write run.json as failed when rank 0, which normally writes it, is stuck).
+    Remove it with :func:`remove_abort_hook`."""
+    _abort_hooks.append(hook)
+    return hook
+
+
+def remove_abort_hook(hook) -> None:
+    if hook in _abort_hooks:
+        _abort_hooks.remove(hook)
+
+
+def _run_abort_hooks(exit_code: int, message: str) -> None:
+    for hook in list(_abort_hooks):
+        try:
+            hook(exit_code, message)
+        except Exception:
+            pass
+
+
 def abort_job(comm, exit_code: int, message: str) -> None:
-    """Write ``message`` (one line, naming this rank) to stderr and abort every rank."""
+    """Run the abort hooks, write ``message`` (one line, naming this rank) to stderr and
+    abort every rank."""
+    _run_abort_hooks(exit_code, message)
     sys.stderr.write(f"dpcollapse: error: [rank {comm.rank}] {message}\n")
     sys.stderr.flush()
     comm.Abort(exit_code if 0 < exit_code < 256 else 1)
 
 
-def end_together(exit_code: int, message: str) -> bool:
-    """Called by a rank that is about to exit with an error.
+def fail_now(exit_code: int, message: str) -> None:
+    """End the whole job from any thread, at once: the abort hooks, one line, then
+    ``MPI_Abort`` (several ranks) or ``os._exit`` (one process). For a main thread stuck
+    in a C library that never returns (see :func:`time_limit`)."""
+    world = _world()
+    if world is not None and world.size > 1:
+        abort_job(world, exit_code, message)
+    _run_abort_hooks(exit_code, message)
+    sys.stderr.write(f"dpcollapse: error: {message}\n")
+    sys.stderr.flush()
+    sys.stdout.flush()
+    os._exit(exit_code)
 
-    Returns True when every rank failed too (or there is no MPI job): the caller reports
-    and exits normally. Otherwise this rank aborts the whole job and does not return.
+
+@contextmanager
+def time_limit(seconds: float, exit_code: int, message: Callable[[float], str]):
+    """Bound a call into a C library that may never return (gmsh looping on a degenerate
+    boundary): past ``seconds`` a watchdog thread ends the job (:func:`fail_now`) with
+    ``exit_code`` and ``message(seconds)``."""
+    import threading
+
+    timer = threading.Timer(seconds, lambda: fail_now(exit_code, message(seconds)))
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()
+
+
+def end_together(exit_code: int, message: str, peer: bool = False) -> bool:
+    """Called by a rank that is about to exit with an error (``peer``: the error is
+    another rank's, learned in a failure-aware call).
+
+    Notifies the other ranks, then returns True when every rank reaches the end within
+    the grace time (or there is no MPI job): the caller reports (rank 0) and exits
+    normally. Otherwise this rank aborts the whole job and does not return.
     """
-    comm = _world()
-    if comm is None or comm.size == 1:
+    world = _world()
+    if world is None or world.size == 1:
         return True
+    _ignore_signals()    # a further SIGTERM (mpirun forwards it) must not break the ending
+    if not peer:
+        notify_failure(exit_code, message)
+    comm = _control if _control is not None else world
     if all_arrive(comm, grace_seconds()):
+        _drain()
         return True
     abort_job(comm, exit_code, message + " (the other ranks did not stop: aborting the job)")
     return False  # not reached
+
+
+def _ignore_signals() -> None:
+    import signal
+    import threading
+
+    if threading.current_thread() is threading.main_thread():
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, signal.SIG_IGN)
 
 
 def install_excepthook() -> None:

@@ -21,14 +21,30 @@ BOUNDARY_TOL = 1e-9
 
 
 def _dataset(run_dir: Path, text: str) -> np.ndarray:
-    filename, path = text.strip().split(":", 1)
-    with h5py.File(run_dir / filename, "r") as f:
-        return f[path][()]
+    """An HDF5 dataset a master names (``file.h5:/path``); a missing, truncated or damaged
+    file is ConfigError naming it (a run directory the command cannot read: exit 2)."""
+    filename, _, path = (text or "").strip().partition(":")
+    try:
+        with h5py.File(run_dir / filename, "r") as f:
+            return f[path][()]
+    except (OSError, KeyError, ValueError) as exc:
+        why = "missing" if not (run_dir / filename).exists() else "cannot be read"
+        raise ConfigError(f"RUN_DIR = {run_dir}: {filename} ({path}), listed in solution.xdmf, "
+                          f"is {why} ({' '.join(str(exc).split())[:80]}); resume the run "
+                          "(--resume drops unreadable steps) or run it again") from None
+
+
+def _master(run_dir: Path) -> ET.Element:
+    """The parsed solution.xdmf; a damaged one is ConfigError naming it."""
+    try:
+        return ET.parse(run_dir / "solution.xdmf").getroot()
+    except ET.ParseError as exc:
+        raise ConfigError(f"RUN_DIR = {run_dir}: solution.xdmf is damaged ({exc})") from None
 
 
 def read_series(run_dir: Path) -> list[tuple[float, np.ndarray, np.ndarray]]:
     """(t, node coordinates, triangles) for every time in ``solution.xdmf``."""
-    root = ET.parse(run_dir / "solution.xdmf").getroot()
+    root = _master(run_dir)
     series = []
     for grid in root.iter("Grid"):
         time = grid.find("Time")
@@ -43,7 +59,7 @@ def read_series(run_dir: Path) -> list[tuple[float, np.ndarray, np.ndarray]]:
 
 def read_cell_field(run_dir: Path, name: str) -> list[tuple[float, np.ndarray]]:
     """(t, cell values) of the cell attribute ``name`` for every time that has it."""
-    root = ET.parse(run_dir / "solution.xdmf").getroot()
+    root = _master(run_dir)
     out = []
     for grid in root.iter("Grid"):
         time = grid.find("Time")
@@ -108,6 +124,8 @@ def plot_run(run_dir: Path, times: list[float] | None = None) -> Path:
     if not (run_dir / "solution.xdmf").exists():
         raise ConfigError(f"RUN_DIR = {run_dir}: no solution.xdmf there (is it a run directory?)")
     series = read_series(run_dir)
+    if not series:
+        raise ConfigError(f"RUN_DIR = {run_dir}: solution.xdmf lists no output step")
     available = np.array([s[0] for s in series])
     if times:
         lo, hi = float(available.min()), float(available.max())

@@ -35,12 +35,13 @@ import math
 import signal
 import sys
 import time
+import uuid
 from pathlib import Path
 
 import numpy as np
 from mpi4py import MPI
 
-from dpcollapse import compat
+from dpcollapse import compat, parallel
 from dpcollapse.ale.motion import quality, retag_landed
 from dpcollapse.config import Config, config_to_dict, save_config
 from dpcollapse.domain import moving
@@ -125,8 +126,9 @@ class _StopRequest:
         self.signal = signum
 
     def requested(self, comm) -> bool:
-        """Whether any rank was signalled (collective: every rank stops at the same step)."""
-        return bool(comm.allreduce(self.signal is not None, op=MPI.LOR))
+        """Whether any rank was signalled (collective and failure-aware: every rank stops
+        at the same step, and a rank that failed alone is noticed here)."""
+        return parallel.allreduce(comm, self.signal is not None, op=MPI.LOR)
 
 
 class Simulation:
@@ -146,26 +148,28 @@ class Simulation:
                               f"({compat.DOLFINX_VERSION_TEXT}) has no ADIOS2 (Debian 12's 0.5.2 "
                               "has none); use xdmf")
         self.run_dir = Path(run_dir)
-        if comm.rank == 0:
-            self.run_dir.mkdir(parents=True, exist_ok=True)
-        comm.barrier()
+        parallel.on_root(comm, lambda: self.run_dir.mkdir(parents=True, exist_ok=True))
         self.checkpoint_path = self.run_dir / "checkpoint.npz"
         resume = resume and (self.checkpoint_path.exists()
                              or previous_path(self.checkpoint_path).exists())
+        #: the run's identity and config fingerprint, stored in every checkpoint
+        self.identity = {"fingerprint": config_fingerprint(cfg), "run_id": uuid.uuid4().hex[:12]}
         if resume:
             disc, state = self.factory.load_checkpoint(self.checkpoint_path, comm)
             self.state = LoopState.from_dict(state)
+            self.identity["run_id"] = check_identity(self.state.extra.get("run"), self.identity,
+                                                     self.run_dir)
             self._use(disc)
+            self._last_measures = self.disc.measures()
             log.info("resuming from t = %.4f s (step %d)", self.state.t, self.state.step)
         else:
             self.state = LoopState(dt_target=cfg.time.dt)
             self._use(self.factory.start(comm))
-            m0 = self.disc.measures()
+            m0 = self._last_measures = self.disc.measures()
             st = self.state
             st.area0, st.gravity_moment0, st.kinetic_energy0 = (
                 m0["area"], m0["gravity_moment"], m0["kinetic_energy"])
-        if comm.rank == 0:
-            save_config(cfg, self.run_dir / "config.yaml")
+        parallel.on_root(comm, lambda: save_config(cfg, self.run_dir / "config.yaml"))
         self.field_export = FieldExport(self.run_dir, comm, cfg.output.format, cfg.time.output_every)
         self.checkpoint_export = CheckpointExport(self.checkpoint_path, cfg.time.checkpoint_every)
         if resume:
@@ -173,7 +177,16 @@ class Simulation:
         self.diagnostics = DiagnosticsWriter(self.run_dir / "diagnostics.csv", comm,
                                              resume_after=self.state.t if resume else None,
                                              extra_columns=self.disc.extra_measures)
-        self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg))
+        if resume:   # the checkpoint step's row, if the file lost it (cut by a crash)
+            restored = parallel.agree(comm, lambda: self.diagnostics.restore(
+                {"step": self.state.step, "t": self.state.t, "remeshes": self.state.remeshes,
+                 "landings": self.state.landings or 0, **self._last_measures}))
+            if restored:
+                log.warning("diagnostics.csv ended before the checkpoint (t = %.4f s): its row "
+                            "was rebuilt from the checkpoint (dt, iterations: nan); rows between "
+                            "them, if any, are lost", self.state.t)
+        self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg),
+                            run_id=self.identity["run_id"])
         self.timings = {"solve": 0.0, "mesh_motion": 0.0, "remesh": 0.0, "output": 0.0}
         self.iteration_counts: list[int] = []
         self.step_sizes: list[float] = []
@@ -214,7 +227,9 @@ class Simulation:
             return
         self.state.checkpoint_step = self.state.step
         t0 = time.perf_counter()
-        self.checkpoint_export.write(self.factory, self.disc, self.state.to_dict())
+        # rank 0 writes it: every rank shares the outcome (a full disk ends them together)
+        parallel.agree(self.comm, lambda: self.checkpoint_export.write(
+            self.factory, self.disc, {**self.state.to_dict(), "run": self.identity}))
         self.timings["output"] += time.perf_counter() - t0
 
     def _remesh(self, reason: str) -> None:
@@ -398,19 +413,22 @@ class Simulation:
         progress = Progress(self.comm, cfg.time.end_time, cfg.time.output_every, self.quiet)
         stop_request = _StopRequest()
         previous = {s: signal.signal(s, stop_request) for s in (signal.SIGTERM, signal.SIGINT)}
+        # ended at once (a rank failed alone, a stuck mesher): run.json says so, from this rank
+        abort_hook = parallel.on_abort(self._record_abort)
+        agreed_stop = False   # an interrupt every rank agreed on (the ranks are in step)
         try:
             while st.t < cfg.time.end_time - 1e-12:
                 dt, iterations, residual = self._step()
                 self.iteration_counts.append(iterations)
                 self.step_sizes.append(dt)
-                m = self.disc.measures()
+                m = self._last_measures = self.disc.measures()
                 self._check_energy(m)
                 row = {"step": st.step, "t": st.t, "dt": dt, "dt_limit": self.dt_limit,
                        "courant": self.courant,
                        "iterations": iterations,
                        "residual": residual, "remeshes": st.remeshes, "landings": st.landings or 0,
                        "wall_time": time.perf_counter() - self.wall0, **m}
-                self.diagnostics.write(row)
+                parallel.agree(self.comm, lambda: self.diagnostics.write(row))   # rank 0's
                 stop = any([bool(observe(self)) for observe in observers]
                            + [bool(v) for v in self.events.emit("step_accepted", self, row)])
                 progress.update(st.step, st.t, dt, iterations, m["front"])
@@ -430,39 +448,56 @@ class Simulation:
                 if stop_request.requested(self.comm):   # after an accepted step: save it
                     self._output()
                     self._checkpoint()
+                    agreed_stop = True
                     raise KeyboardInterrupt
             else:
                 st.status = "end_time"
                 self._output()
                 self._checkpoint()
         except KeyboardInterrupt:
-            self._finish("interrupted", progress)
+            self._finish("interrupted", progress, collective=agreed_stop)
             raise Interrupted(f"stopped at t = {st.t:.4f} s; the run directory is valid, "
                               f"continue with --resume") from None
         except (ConvergenceError, MeshError) as exc:
             if "t = " not in str(exc):      # say when
                 exc = type(exc)(f"after t = {st.t:.4f} s: {exc}")
             self.events.emit("failure", self, exc)
-            self._finish("failed", progress, error=str(exc))
+            self._finish("failed", progress, error=str(exc), collective=False)
             raise exc from None
-        except Exception as exc:       # an I/O failure or a bug: say so in run.json if we can
-            self.events.emit("failure", self, exc)
+        except Exception as exc:       # an I/O failure, another rank's failure or a bug:
+            self.events.emit("failure", self, exc)   # say so in run.json if we can
+            status = "interrupted" if getattr(exc, "exit_code", None) == 130 else "failed"
+            error = str(exc) if isinstance(exc, parallel.PeerFailed) else f"{type(exc).__name__}: {exc}"
             try:
-                self._finish("failed", progress, error=f"{type(exc).__name__}: {exc}")
+                self._finish(status, progress, error=error, collective=False)
             except Exception:          # e.g. the disk is still full
                 pass
             raise
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
+        parallel.remove_abort_hook(abort_hook)
         return self._finish(st.status, progress)
 
-    def _finish(self, status: str, progress: Progress, error: str | None = None) -> dict:
+    def _record_abort(self, exit_code: int, message: str) -> None:
+        """The job is ended at once (``parallel.on_abort``): run.json from this rank."""
+        from dpcollapse.io.runinfo import write_json_atomic
+
+        self.info.update(status="interrupted" if exit_code == 130 else "failed",
+                         summary={**self.info.data.get("summary", {}), "error": message})
+        write_json_atomic(self.info.path, self.info.data)
+
+    def _finish(self, status: str, progress: Progress, error: str | None = None,
+                collective: bool = True) -> dict:
+        """Close the outputs and write run.json. ``collective``: the ranks are in step (a
+        normal end, an agreed interrupt); otherwise (a failure, possibly on one rank only)
+        nothing here waits for another rank and the measures are the last accepted step's."""
         progress.close()
-        self.field_export.close()
+        if collective:
+            self.field_export.close()
         self.diagnostics.close()
         its = self.iteration_counts
-        m = self.disc.measures()
+        m = self.disc.measures() if collective else self._last_measures
         summary = {
             "status": status, "t": self.state.t, "steps": self.state.step,
             "remeshes": self.state.remeshes, "front": m["front"], "max_height": m["max_height"],
@@ -489,6 +524,42 @@ class Simulation:
         self.info.update(status=status, summary=summary, timings=self.timings)
         self.info.write()
         return summary
+
+
+def config_fingerprint(cfg: Config) -> str:
+    """Hash of the config without the keys a resume may change (``io.rundir.RESUMABLE_KEYS``)."""
+    import hashlib
+    import json
+
+    from dpcollapse.io.rundir import RESUMABLE_KEYS
+
+    data = config_to_dict(cfg)
+    for key in RESUMABLE_KEYS:
+        section, name = key.split(".")
+        data.get(section, {}).pop(name, None)
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+def check_identity(stored: dict | None, mine: dict, run_dir: Path) -> str:
+    """The run id to continue under: the checkpoint's, when it was written by this run
+    (same config fingerprint, and the run id run.json names). A checkpoint of another run
+    (copied in) is ConfigError naming both; one older than fingerprints is trusted."""
+    import json
+
+    if not stored:
+        log.warning("the checkpoint predates run fingerprints: it is trusted to be this run's")
+        return mine["run_id"]
+    try:
+        owner = json.loads((run_dir / "run.json").read_text()).get("run_id")
+    except (OSError, ValueError, AttributeError):
+        owner = None
+    if stored.get("fingerprint") != mine["fingerprint"] or (owner and stored.get("run_id") != owner):
+        raise ConfigError(
+            f"--resume: the checkpoint in {run_dir} belongs to another run (run "
+            f"{stored.get('run_id')}, config fingerprint {stored.get('fingerprint')}) than this "
+            f"one (run {owner or 'unknown'}, config fingerprint {mine['fingerprint']}): was it "
+            "copied in? Start the run again with --overwrite")
+    return stored.get("run_id") or mine["run_id"]
 
 
 def _finite(value: float) -> float | None:

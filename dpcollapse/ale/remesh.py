@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dpcollapse import parallel
 from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, boundary_edges, mesh_polygon
 from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, clip_right, offset_run,
                                          polygon_is_simple, remove_spikes, resample, where_it_crosses,
@@ -53,6 +54,10 @@ def boundary_polygon(tagged: TaggedMesh, trim_thickness: float = 0.0) -> _Repair
     all_edges, all_tags = boundary_edges(tagged)
     if tagged.mesh.comm.rank != 0:
         return None
+    return _repaired(all_edges, all_tags, trim_thickness)
+
+
+def _repaired(all_edges, all_tags, trim_thickness: float) -> _Repaired:
     folded = chain_boundary(all_edges, all_tags, simple=False)
     return _Repaired(repair_polygon(folded, trim_thickness), folded.area)
 
@@ -109,10 +114,10 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
     by moving the free surface's interior vertices along their normal by one distance
     (``polygon.offset_run``; of order ΔA / surface length)."""
     comm = tagged.mesh.comm
-    poly = boundary_polygon(tagged, trim_thickness)
-    points = tags = None
-    d_area, nverts = 0.0, 0
-    if comm.rank == 0:
+    all_edges, all_tags = boundary_edges(tagged)
+
+    def new_boundary():       # rank 0; its failure (a ValueError) is every rank's
+        poly = _repaired(all_edges, all_tags, trim_thickness)
         hs = surface_mesh_size or mesh_size
 
         def target(tag: int) -> float:
@@ -127,7 +132,8 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
                                movable=points[:, 1] > 0)
             if polygon_is_simple(moved):
                 points = moved
-        d_area = BoundaryPolygon(points, tags).area - area_before
-        nverts = len(points)
-    d_area, nverts = comm.bcast((d_area, nverts), root=0)
+        return points, tags, BoundaryPolygon(points, tags).area - area_before
+
+    points, tags, d_area = parallel.on_root(comm, new_boundary)   # on every rank
+    nverts = len(points)
     return mesh_polygon(comm, points, tags, mesh_size, surface_mesh_size), d_area, nverts

@@ -137,11 +137,53 @@ def mesh_polygon(comm: MPI.Comm, points: np.ndarray | None, edge_tags: np.ndarra
                  mesh_size: float, surface_mesh_size: float | None = None) -> TaggedMesh:
     """Mesh the polygon given on rank 0 (other ranks may pass None) over ``comm``."""
     size = size_function(mesh_size, surface_mesh_size)
+    return _mesh_on_root(comm, lambda gmsh: build_polygon_model(
+        gmsh, np.asarray(points), np.asarray(edge_tags), size))
+
+
+#: Floor of the time bound of one gmsh generation [s] (``DPCOLLAPSE_MESH_TIME_LIMIT``); the
+#: bound is the larger of it and GENERATION_MARGIN times the longest generation so far.
+MESH_TIME_LIMIT = 120.0
+GENERATION_MARGIN = 30.0
+_longest_generation = 0.0
+
+
+def generation_limit() -> float:
+    """Seconds one gmsh generation may take before the run is declared a mesh failure."""
+    import os
+
+    try:
+        floor = float(os.environ.get("DPCOLLAPSE_MESH_TIME_LIMIT", MESH_TIME_LIMIT))
+    except ValueError:
+        floor = MESH_TIME_LIMIT
+    return max(floor, GENERATION_MARGIN * _longest_generation)
+
+
+def _mesh_on_root(comm: MPI.Comm, build: Callable) -> TaggedMesh:
+    """Build and generate the gmsh model on rank 0 (``build(gmsh)``), bounded in time
+    (gmsh's frontal mesher can loop forever on a nearly degenerate boundary: exit 4
+    instead of a hang), its failure shared with every rank; then distribute over ``comm``."""
+    import time
+
+    from dpcollapse import parallel
+
+    def generate(gmsh):
+        global _longest_generation
+        limit = generation_limit()
+        t0 = time.perf_counter()
+        with parallel.time_limit(limit, 4, lambda s: (
+                f"meshing did not finish within {s:g} s (gmsh stuck on a nearly degenerate "
+                "boundary): a smaller time.dt or geometry.mesh_size, or a larger "
+                "numerics.remesh_min_angle (remesh sooner), may carry it further")):
+            build(gmsh)
+        _longest_generation = max(_longest_generation, time.perf_counter() - t0)
+
     if comm.rank == 0:
         with gmsh_session() as gmsh:
-            build_polygon_model(gmsh, np.asarray(points), np.asarray(edge_tags), size)
+            parallel.on_root(comm, lambda: generate(gmsh))
             mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
     else:
+        parallel.on_root(comm, lambda: None)
         mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
     mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
     return TaggedMesh(mesh, facet_tags, cell_tags)
@@ -205,14 +247,7 @@ def mesh_regions(comm: MPI.Comm, regions: list | None, mesh_size: float,
     """Mesh the regions (``build_regions_model``; given on rank 0, None elsewhere) over
     ``comm``: one conforming mesh, cells tagged by region."""
     size = size_function(mesh_size, surface_mesh_size)
-    if comm.rank == 0:
-        with gmsh_session() as gmsh:
-            build_regions_model(gmsh, regions, size)
-            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
-    else:
-        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
-    mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
-    return TaggedMesh(mesh, facet_tags, cell_tags)
+    return _mesh_on_root(comm, lambda gmsh: build_regions_model(gmsh, regions, size))
 
 
 def write_regions_msh(path, regions: list, mesh_size: float,

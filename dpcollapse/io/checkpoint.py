@@ -99,7 +99,7 @@ def write_npz_atomic(path: Path, arrays: dict) -> None:
     path = Path(path)
     tmp = path.with_name(path.stem + ".tmp.npz")
     try:
-        np.savez(tmp, **arrays)
+        _write_npz(tmp, arrays)
         fsync_path(tmp)
     except BaseException:
         tmp.unlink(missing_ok=True)
@@ -113,6 +113,24 @@ def write_npz_atomic(path: Path, arrays: dict) -> None:
         os.link(path, link)
         os.replace(link, previous_path(path))
     os.replace(tmp, path)
+
+
+def _write_npz(path: Path, arrays: dict) -> None:
+    """``np.savez`` (an uncompressed zip of .npy members, which ``np.load`` reads) that
+    leaves no open ZipFile behind when a write fails: numpy's would be closed again by
+    its ``__del__`` later, print a second traceback on a full disk."""
+    import zipfile
+
+    with open(path, "wb") as f:
+        archive = zipfile.ZipFile(f, mode="w", compression=zipfile.ZIP_STORED, allowZip64=True)
+        try:
+            for name, value in arrays.items():
+                with archive.open(f"{name}.npy", "w", force_zip64=True) as member:
+                    np.lib.format.write_array(member, np.asanyarray(value), allow_pickle=False)
+            archive.close()
+        except BaseException:
+            archive.fp = None     # closed with the file: nothing left for __del__ to write
+            raise
 
 
 def previous_path(path: Path) -> Path:
@@ -156,7 +174,9 @@ def choose_checkpoint(path: Path, comm, required: tuple[str, ...] = _REQUIRED) -
                 choice = str(candidate)
                 break
             problems.append(f"{candidate.name}: {problem}")
-    choice, problems = comm.bcast((choice, problems), root=0)
+    from dpcollapse import parallel
+
+    choice, problems = parallel.bcast(comm, (choice, problems), root=0)
     if choice is None:
         raise ConfigError(f"--resume: no usable checkpoint in {path.parent} ({'; '.join(problems)})"
                           "; start the run again with --overwrite")

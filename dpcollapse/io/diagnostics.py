@@ -22,11 +22,17 @@ class DiagnosticsWriter:
         self.rank = comm.rank
         #: COLUMNS, then the model's own measures (the depth-averaged model: wet_front, outflow)
         self.columns = COLUMNS + [c for c in extra_columns if c not in COLUMNS]
-        if self.rank != 0:
-            return
+        from dpcollapse import parallel
+
+        parallel.on_root(comm, lambda: self._start(resume_after))   # its failure is every rank's
+
+    def _start(self, resume_after: float | None) -> None:
+        """Rank 0: the file with the rows kept on resume, open for appending."""
         rows = []
         if resume_after is not None and self.path.exists():
             rows = [r for r in complete_rows(self.path) if float(r["t"]) <= resume_after + 1e-12]
+        #: time of the last row kept on resume (None: none kept)
+        self.last_kept_t = float(rows[-1]["t"]) if rows else None
         # the kept rows go to a new file that replaces the old one whole
         tmp = self.path.with_name(self.path.name + ".tmp")
         with tmp.open("w", newline="") as f:
@@ -43,6 +49,19 @@ class DiagnosticsWriter:
             return
         self._writer.writerow({k: row[k] for k in self.columns})
         self._file.flush()
+
+    def restore(self, row: dict) -> bool:
+        """Resume: write ``row`` (the checkpoint's step; missing columns nan) when the kept
+        rows end before it (the file was cut after the checkpoint was written). Whether it
+        was written (rank 0; False elsewhere)."""
+        if self.rank != 0:
+            return False
+        t = float(row["t"])
+        if self.last_kept_t is not None and self.last_kept_t >= t - 1e-12 * max(1.0, abs(t)):
+            return False
+        self._writer.writerow({k: row.get(k, float("nan")) for k in self.columns})
+        self._file.flush()
+        return True
 
     def close(self) -> None:
         if self.rank == 0:

@@ -26,6 +26,7 @@ import errno
 import fcntl
 import os
 import platform
+import re
 import shutil
 from pathlib import Path
 from typing import Any
@@ -44,6 +45,8 @@ RESUMABLE_KEYS = ("time.end_time", "time.max_steps", "time.output_every",
                   "time.checkpoint_every", "time.rest_speed", "time.rest_duration",
                   "output.directory")
 LOCK_NAME = ".lock"
+#: The names a run writes inside RUN_DIRS (XDMF steps, VTX series and their temporaries).
+_RUN_STEP = re.compile(r"^(step_\d{6,}\.(xdmf|h5)(\.tmp)?|[\w.-]*\.bp(\.tmp)?)$")
 
 
 def holds_run(run_dir: Path) -> bool:
@@ -61,6 +64,13 @@ def check_location(run_dir: Path | str) -> Path:
         max_name = os.pathconf(_existing_ancestor(path), "PC_NAME_MAX")
     except (OSError, ValueError):
         max_name = 255
+    try:
+        max_path = os.pathconf(_existing_ancestor(path), "PC_PATH_MAX")
+    except (OSError, ValueError):
+        max_path = 4096
+    if len(os.fsencode(str(path.absolute()))) >= max_path:
+        raise ConfigError(f"--out = {text[:60]}...: the path has {len(os.fsencode(text))} bytes, "
+                          f"more than the file system allows ({max_path})")
     for part in path.parts:
         if len(part.encode()) > max_name:
             raise ConfigError(f"--out = {text[:60]}...: a path component has {len(part.encode())} "
@@ -68,7 +78,24 @@ def check_location(run_dir: Path | str) -> Path:
     for parent in [path, *path.parents]:
         if parent.exists() and not parent.is_dir():
             raise ConfigError(f"--out = {text}: {parent} is a file, not a directory")
+    _refuse_shared_folder(path, text)
     return path
+
+
+def _refuse_shared_folder(path: Path, text: str) -> None:
+    """A run directory of its own: never the root, the home directory or the working
+    directory itself (a run writes fields/, and --overwrite removes what a run wrote)."""
+    try:
+        resolved = path.expanduser().resolve()
+    except (OSError, RuntimeError):
+        return
+    shared = {Path("/"): "the root directory", Path.cwd().resolve(): "the working directory"}
+    home = os.environ.get("HOME")
+    if home:
+        shared[Path(home).resolve()] = "the home directory"
+    if resolved in shared:
+        raise ConfigError(f"--out = {text}: is {shared[resolved]}; a run needs a directory of "
+                          "its own (e.g. runs/NAME)")
 
 
 def _existing_ancestor(path: Path) -> Path:
@@ -118,30 +145,27 @@ class RunDirectory:
             raise
 
     def _lock(self) -> None:
-        lock_path = self.path / LOCK_NAME
-        try:
-            fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o644)
-        except OSError as exc:
-            raise ConfigError(f"--out = {self.path}: cannot create {LOCK_NAME} "
-                              f"({exc.strerror})") from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError as exc:
-            holder = _read_holder(fd)
-            os.close(fd)
-            if exc.errno in (errno.EWOULDBLOCK, errno.EACCES, errno.EAGAIN):
-                raise ConfigError(f"--out = {self.path} is in use by another run ({holder}): "
-                                  "wait for it to end, or choose another --out") from None
-            raise
-        os.ftruncate(fd, 0)
-        os.write(fd, f"{platform.node()} pid {os.getpid()}\n".encode())
-        self._lock_fd = fd
+        self._lock_fd = take_lock(self.path, LOCK_NAME, "run")
 
     def _remove_run(self) -> None:
+        """Remove the files a run writes, and only those: in fields/ and vtx/ the step
+        files (``step_NNNNNN.xdmf/.h5``, ``*.bp``); a folder is removed only once empty."""
         for name in RUN_FILES:
             (self.path / name).unlink(missing_ok=True)
         for name in RUN_DIRS:
-            shutil.rmtree(self.path / name, ignore_errors=True)
+            folder = self.path / name
+            if not folder.is_dir():
+                continue
+            for item in folder.iterdir():
+                if _RUN_STEP.match(item.name):
+                    if item.is_dir() and not item.is_symlink():
+                        shutil.rmtree(item, ignore_errors=True)
+                    else:
+                        item.unlink(missing_ok=True)
+            try:
+                folder.rmdir()
+            except OSError:          # something the run did not write is left in it
+                pass
         for tmp in self.path.glob("*.tmp"):
             tmp.unlink(missing_ok=True)
 
@@ -181,6 +205,29 @@ class RunDirectory:
         self.release()
 
 
+def take_lock(folder: Path, name: str, holder_kind: str) -> int:
+    """An exclusive ``flock`` on ``folder/name`` (the file notes this host and pid); the
+    descriptor (close it to release). ConfigError naming the holder when another process
+    (a ``holder_kind``: run, sweep) has it."""
+    lock_path = Path(folder) / name
+    try:
+        fd = os.open(lock_path, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as exc:
+        raise ConfigError(f"--out = {folder}: cannot create {name} ({exc.strerror})") from None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError as exc:
+        holder = _read_holder(fd)
+        os.close(fd)
+        if exc.errno in (errno.EWOULDBLOCK, errno.EACCES, errno.EAGAIN):
+            raise ConfigError(f"--out = {folder} is in use by another {holder_kind} ({holder}): "
+                              "wait for it to end, or choose another --out") from None
+        raise
+    os.ftruncate(fd, 0)
+    os.write(fd, f"{platform.node()} pid {os.getpid()}\n".encode())
+    return fd
+
+
 def claim_on_root(comm, run_dir, config: dict[str, Any], mode: str) -> RunDirectory:
     """Claim ``run_dir`` on rank 0 of ``comm`` (collective); every rank raises the same
     ConfigError when the claim is refused. Use the result as a context manager."""
@@ -192,7 +239,9 @@ def claim_on_root(comm, run_dir, config: dict[str, Any], mode: str) -> RunDirect
             claim.claim(config, mode)
         except ConfigError as exc:
             error = str(exc)
-    error = comm.bcast(error, root=0)
+    from dpcollapse import parallel
+
+    error = parallel.bcast(comm, error, root=0)
     if error is not None:
         raise ConfigError(error)
     return claim

@@ -41,12 +41,13 @@ def write_json_atomic(path: Path, data: dict) -> None:
 class RunInfo:
     """Collects what a run did and rewrites ``run.json`` atomically on rank 0."""
 
-    def __init__(self, path: Path, comm, config: dict):
+    def __init__(self, path: Path, comm, config: dict, run_id: str | None = None):
         self.path = Path(path)
         self.rank = comm.rank
         self.started = time.time()
         self.data = {
             "status": "running",
+            "run_id": run_id,
             "versions": versions(),
             "mpi_size": comm.size,
             "host": platform.node(),
@@ -62,12 +63,15 @@ class RunInfo:
                     {k: old.get(k) for k in ("status", "started", "summary", "timings")}]
             except (json.JSONDecodeError, OSError):
                 pass
-        self.write()
+        from dpcollapse import parallel
+
+        parallel.on_root(comm, self.write)   # a failure to write it ends every rank
 
     def update(self, **kwargs) -> None:
         self.data.update(kwargs)
 
     def write(self) -> None:
+        """Rewrite run.json (rank 0; not collective)."""
         if self.rank == 0:
             self.data["wall_time"] = time.time() - self.started
             write_json_atomic(self.path, self.data)

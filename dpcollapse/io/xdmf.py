@@ -50,7 +50,7 @@ from typing import Sequence
 import h5py
 from mpi4py import MPI
 
-from dpcollapse import compat
+from dpcollapse import compat, parallel
 from dpcollapse.io.durable import fsync_path
 
 __all__ = ["XDMFTimeSeries", "check_output_function"]
@@ -228,22 +228,25 @@ class XDMFTimeSeries:
 
         index = self._next_index
         step_xdmf = self.step_path(index)
-        try:
-            with c_stderr_captured() as captured:   # HDF5 prints its error stack there
-                compat.write_xdmf_step(self.comm, str(step_xdmf), mesh, functions, t)
-                if HDF5_ERROR in captured.so_far():
-                    raise RuntimeError("HDF5 reported an error (its stack is on stderr)")
-        except RuntimeError as exc:  # HDF5 reports a full disk or a lost file this way
-            global hdf5_write_failed
-            hdf5_write_failed = True
-            if self.comm.rank == 0:
-                for path in (step_xdmf, step_xdmf.with_suffix(".h5")):
-                    path.unlink(missing_ok=True)
-            reason = re.search(r"error message = '([^']+)'", captured.text)
-            detail = reason.group(1) if reason else str(exc)
-            raise OSError(errno.EIO, f"writing {step_xdmf.name} failed ({detail})",
-                          str(step_xdmf.with_suffix(".h5"))) from None
-        self.comm.Barrier()  # every rank's share of the H5 file is closed
+        def write_step():
+            try:
+                with c_stderr_captured() as captured:   # HDF5 prints its error stack there
+                    compat.write_xdmf_step(self.comm, str(step_xdmf), mesh, functions, t)
+                    if HDF5_ERROR in captured.so_far():
+                        raise RuntimeError("HDF5 reported an error (its stack is on stderr)")
+            except RuntimeError as exc:  # HDF5 reports a full disk or a lost file this way
+                global hdf5_write_failed
+                hdf5_write_failed = True
+                if self.comm.rank == 0:
+                    for path in (step_xdmf, step_xdmf.with_suffix(".h5")):
+                        path.unlink(missing_ok=True)
+                reason = re.search(r"error message = '([^']+)'", captured.text)
+                detail = reason.group(1) if reason else str(exc)
+                raise OSError(errno.EIO, f"writing {step_xdmf.name} failed ({detail})",
+                              str(step_xdmf.with_suffix(".h5"))) from None
+
+        # every rank's share of the H5 file is closed, and a failure on one is every rank's
+        parallel.agree(self.comm, write_step)
 
         def publish():
             step_h5 = step_xdmf.with_suffix(".h5")
@@ -280,17 +283,8 @@ class XDMFTimeSeries:
 
     # ------------------------------------------------------------------ internals
     def _on_root(self, fn):
-        """Run ``fn`` on rank 0, broadcast its result (or its exception) to all ranks."""
-        result, error = None, None
-        if self.comm.rank == 0:
-            try:
-                result = fn()
-            except Exception as exc:  # re-raised on every rank below
-                error = exc
-        result, error = self.comm.bcast((result, error), root=0)
-        if error is not None:
-            raise error
-        return result
+        """Run ``fn`` on rank 0, share its result (or its exception) with all ranks."""
+        return parallel.on_root(self.comm, fn)
 
     def _rel(self, path: Path) -> str:
         return Path(os.path.relpath(path, self.master.parent)).as_posix()
@@ -361,20 +355,54 @@ class XDMFTimeSeries:
         return int(match.group(1)), float(time.get("Value"))
 
     def _drop_missing_steps(self) -> None:
-        """Steps whose HDF5 file is gone (deleted by hand, a disk fault) leave the master,
-        which is rewritten: it must never reference a file that does not exist."""
+        """Steps whose HDF5 data cannot be read (a file deleted by hand, truncated by a
+        crash or a full disk, a dataset missing or of another shape than the master says)
+        leave the master, which is rewritten: it must never reference data that is not there."""
         keep = []
         for grid, (index, t) in zip(self._grids, self._steps):
-            files = {(item.text or "").strip().split(":")[0] for item in grid.iter("DataItem")}
-            if all((self.master.parent / f).exists() for f in files if f):
+            problem = self._unreadable(grid)
+            if problem is None:
                 keep.append((grid, (index, t)))
             else:
-                log.warning("%s: step %d (t = %g s) refers to a missing file: dropped",
-                            self.master.name, index, t)
+                log.warning("%s: step %d (t = %g s): %s: dropped", self.master.name, index, t,
+                            problem)
         if len(keep) != len(self._grids):
             self._grids = [g for g, _ in keep]
             self._steps = [s for _, s in keep]
             self._write_master()
+
+    def _unreadable(self, grid: ET.Element) -> str | None:
+        """What is wrong with the HDF5 data a master grid references (None: all readable,
+        of the shapes its ``Dimensions`` state)."""
+        files: dict[str, object] = {}
+        try:
+            for item in grid.iter("DataItem"):
+                if item.get("Format") != "HDF":
+                    continue
+                fname, _, h5path = (item.text or "").strip().partition(":")
+                path = self.master.parent / fname
+                if fname not in files:
+                    if not path.exists():
+                        return f"{fname} is missing"
+                    try:
+                        files[fname] = h5py.File(path, "r")
+                    except OSError as exc:
+                        return f"{fname} cannot be read ({' '.join(str(exc).split())[:80]})"
+                data = files[fname].get(h5path)
+                if data is None:
+                    return f"{fname} has no {h5path}"
+                dims = tuple(int(d) for d in (item.get("Dimensions") or "").split())
+                if dims and tuple(data.shape) != dims:
+                    return f"{fname}:{h5path} has shape {tuple(data.shape)}, not {dims}"
+                try:
+                    if data.shape and data.shape[0]:
+                        data[-1]     # the last chunk is where a truncated file ends
+                except (OSError, IndexError) as exc:
+                    return f"{fname}:{h5path} cannot be read ({exc})"
+        finally:
+            for f in files.values():
+                f.close()
+        return None
 
     def _read_master(self, path: Path) -> list[ET.Element]:
         root = ET.parse(path).getroot()

@@ -157,6 +157,8 @@ def case_row(sweep: Sweep, out: Path, case: Case) -> dict:
                run_dir=str(run_dir(out, case).relative_to(out)))
     row["status"] = cs.state if cs.state in ("pending", "stale", "running") else (
         cs.status if cs.state != "failed" or cs.status == "failed" else "failed")
+    if cs.state == "done" and cs.exit_code not in (0, None):
+        row["exit_code"] = ""    # an earlier attempt's (130 of an interrupt): the run has ended since
     rec = cs.record or {}
     attempts = rec.get("attempts", [])
     times = [a.get("process_time") for a in attempts if isinstance(a.get("process_time"),

@@ -18,7 +18,12 @@ log = logging.getLogger("dpcollapse.sweep")
 
 
 def _fail(exc: DpcollapseError) -> int:
-    click.echo("dpcollapse: error: " + " ".join(str(exc).split()), err=True)
+    """The one line, from the first rank only when several were launched (under a plain
+    ``mpirun -n N dpcollapse sweep`` every rank refuses; the line is printed once)."""
+    from dpcollapse.sweep.executors import launched_rank
+
+    if launched_rank() == 0:
+        click.echo("dpcollapse: error: " + " ".join(str(exc).split()), err=True)
     return exc.exit_code
 
 
@@ -94,8 +99,7 @@ def _sweep(sweep_file, executor, jobs, out, overrides, collect, dry_run, retry_f
     if executor == "slurm":
         array, collect_script = ex.write_slurm(sw, out, list(overrides), jobs)
         click.echo(f"wrote {array} ({len(sw.cases)} array tasks) and {collect_script}\n"
-                   f"submit: jid=$(sbatch --parsable {array}) && "
-                   f"sbatch --dependency=afterany:$jid {collect_script}")
+                   f"submit: {ex.submit_hint(array, collect_script)}")
         return 0
     table = ex.run_sweep(sw, out, executor, jobs or 1, retry_failed)
     click.echo(f"wrote {out / 'sweep.csv'}: {coll.progress_line(table)}")

@@ -256,6 +256,17 @@ def _mpi_pool():
     return MPIPoolExecutor(), MPI.COMM_WORLD.Get_size() - 1
 
 
+def launched_rank() -> int:
+    """This process's rank among those an MPI launcher started (0 when none), from the
+    launcher's variables (MPI is not initialized for this)."""
+    for var in RANK_VARIABLES:
+        try:
+            return int(os.environ[var])
+        except (KeyError, ValueError):
+            continue
+    return 0
+
+
 def launched_ranks() -> int:
     """Number of ranks an MPI launcher started this process among (1 when none)."""
     for var in ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE"):
@@ -307,6 +318,18 @@ def run_sweep(sweep: Sweep, out: Path, executor: str = "local", jobs: int = 1,
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    from dpcollapse.io.rundir import take_lock
+
+    # one sweep at a time on a directory (a second one took the first's running cases,
+    # locked by their runs, for failures)
+    lock = take_lock(out, ".sweep.lock", "sweep")
+    try:
+        return _run_sweep(sweep, out, executor, jobs, retry_failed)
+    finally:
+        os.close(lock)
+
+
+def _run_sweep(sweep: Sweep, out: Path, executor: str, jobs: int, retry_failed: bool) -> list[dict]:
     t0 = time.perf_counter()
     if executor == "mpi":
         pool, workers = _mpi_pool()
@@ -411,7 +434,11 @@ def write_slurm(sweep: Sweep, out: Path, sweep_args: list[str], jobs: int | None
     n = len(sweep.cases)
     python = s.python or sys.executable
     throttle = f"%{jobs}" if jobs else ""
-    header = [f"#SBATCH --job-name=sweep-{sweep.path.stem}",
+    for what, text in (("--out", str(out)), ("the sweep file", str(sweep.path.resolve())),
+                       ("the working directory", os.getcwd()), ("python", python),
+                       ("--set", " ".join(sweep_args))):
+        _script_safe(what, text)
+    header = [f"#SBATCH --job-name={_sbatch_quote('sweep-' + sweep.path.stem)}",
               f"#SBATCH --ntasks={sweep.spec.ranks_per_case}", "#SBATCH --cpus-per-task=1"]
     for flag, value in (("time", s.time), ("partition", s.partition), ("account", s.account),
                         ("mem-per-cpu", s.memory_per_cpu)):
@@ -431,19 +458,39 @@ def write_slurm(sweep: Sweep, out: Path, sweep_args: list[str], jobs: int | None
         "#!/bin/bash",
         *header,
         f"#SBATCH --array=0-{n - 1}{throttle}",
-        f"#SBATCH --output={out}/logs/slurm-%A_%a.out",
+        f"#SBATCH --output={_sbatch_quote(f'{out}/logs/slurm-%A_%a.out')}",
         f"# {n} cases of {sweep.path} (one array task each), written by dpcollapse sweep.",
-        (f"# Submit: jid=$(sbatch --parsable {array}) && "
-         f"sbatch --dependency=afterany:$jid {out / 'collect.sbatch'}"),
+        f"# Submit: {submit_hint(array, out / 'collect.sbatch')}",
         "set -eu", *s.setup, *env, f"cd {shlex.quote(os.getcwd())}", f"exec {task}", ""]))
     coll = out / "collect.sbatch"
     write_atomic(coll, "\n".join([
-        "#!/bin/bash", f"#SBATCH --job-name=collect-{sweep.path.stem}", "#SBATCH --ntasks=1",
+        "#!/bin/bash", f"#SBATCH --job-name={_sbatch_quote('collect-' + sweep.path.stem)}", "#SBATCH --ntasks=1",
         *[h for h in header if h.startswith(("#SBATCH --partition", "#SBATCH --account"))],
-        f"#SBATCH --output={out}/logs/slurm-collect-%j.out",
+        f"#SBATCH --output={_sbatch_quote(f'{out}/logs/slurm-collect-%j.out')}",
         "# After the array: writes sweep.csv and the progress line.",
         "set -eu", *s.setup, *env, f"cd {shlex.quote(os.getcwd())}",
         f"exec {shlex.join(common + ['--collect'])}", ""]))
     array.chmod(0o755)
     coll.chmod(0o755)
     return array, coll
+
+
+def submit_hint(array: Path, collect_script: Path) -> str:
+    """The shell line that submits the array and, after it, the collect job (paths quoted)."""
+    return (f"jid=$(sbatch --parsable {shlex.quote(str(array))}) && "
+            f"sbatch --dependency=afterany:$jid {shlex.quote(str(collect_script))}")
+
+
+def _script_safe(what: str, text: str, quote: str = "") -> None:
+    """ConfigError when ``text`` (a path or value written into a job script) holds a
+    control character (a newline would start a new script line) or ``quote`` (it would
+    end the quoted value)."""
+    if any(ord(c) < 32 or ord(c) == 127 for c in text) or (quote and quote in text):
+        raise ConfigError(f"{what} = {text[:80]!r}: a job script cannot hold it (a newline, "
+                          f"control character{' or ' + quote if quote else ''})")
+
+
+def _sbatch_quote(value: str) -> str:
+    """A value of an ``#SBATCH`` line in double quotes (sbatch reads them; spaces kept)."""
+    _script_safe("an #SBATCH value", value, quote='"')
+    return f'"{value}"'

@@ -35,10 +35,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from dpcollapse.config import config_to_dict, load_config
+from dpcollapse.config import config_to_dict, load_config, parse_input_yaml, read_input_text
 from dpcollapse.errors import ConfigError
 from dpcollapse.sweep.naming import case_names, is_safe_name, yaml_value
 
@@ -59,6 +58,39 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 
+#: A value of an ``#SBATCH`` option: one word of letters, digits and ``_.:,+=@%/-`` (no
+#: space, quote, ``$``, ``#`` or control character: nothing a job script could run).
+_SBATCH_VALUE = re.compile(r"^[\w.:,+=@%/-]+$")
+#: A further sbatch option (``--qos=short``): a dash first, no space, quote, ``$`` or backslash.
+_SBATCH_OPTION = re.compile(r"^-[^\s\"'$`\\#]+$")
+
+
+def no_control_characters(value: str) -> str:
+    """``value`` unchanged, or ValueError when it holds a newline or another control
+    character (it would start a new line of a generated script)."""
+    if any(ord(c) < 32 or ord(c) == 127 for c in value):
+        raise ValueError("must not contain a newline or another control character")
+    return value
+
+
+def check_launcher(value: str) -> str:
+    """A launcher prefix: one line, shell words, ``{ranks}`` its only placeholder."""
+    import shlex
+    import string
+
+    no_control_characters(value)
+    try:
+        fields = {name for _, name, _, _ in string.Formatter().parse(value) if name is not None}
+        value.format(ranks=2)
+        shlex.split(value)
+    except (ValueError, IndexError, KeyError) as exc:
+        raise ValueError(f"not a launcher prefix ({exc}); e.g. 'mpirun -n {{ranks}}'") from None
+    unknown = sorted(fields - {"ranks"})
+    if unknown:
+        raise ValueError(f"unknown placeholder {{{unknown[0]}}}; the only one is {{ranks}}")
+    return value
+
+
 class SlurmOptions(_Strict):
     """``--executor slurm``: the ``#SBATCH`` lines of the job-array script."""
 
@@ -71,6 +103,40 @@ class SlurmOptions(_Strict):
     launcher: str = Field("srun -n {ranks}", description="prefix of a case on several ranks")
     python: str | None = Field(None, description="Python of the array tasks "
                                "(default: the one writing the script)")
+
+    @field_validator("time", "partition", "account", "memory_per_cpu")
+    @classmethod
+    def _one_word(cls, v: str | None) -> str | None:
+        if v is not None and not _SBATCH_VALUE.match(v):
+            raise ValueError("must be one word of letters, digits and _.:,+=@%/- (no space, "
+                             "quote, $ or control character)")
+        return v
+
+    @field_validator("sbatch")
+    @classmethod
+    def _options(cls, v: list[str]) -> list[str]:
+        for option in v:
+            if not _SBATCH_OPTION.match(option):
+                raise ValueError(f"{option!r}: an sbatch option such as --qos=short (a dash "
+                                 "first; no space, quote, $, # or control character)")
+        return v
+
+    @field_validator("setup")
+    @classmethod
+    def _lines(cls, v: list[str]) -> list[str]:
+        for line in v:
+            no_control_characters(line)
+        return v
+
+    @field_validator("python")
+    @classmethod
+    def _python(cls, v: str | None) -> str | None:
+        return None if v is None else no_control_characters(v)
+
+    @field_validator("launcher")
+    @classmethod
+    def _launcher(cls, v: str) -> str:
+        return check_launcher(v)
 
 
 class SweepFile(_Strict):
@@ -85,6 +151,11 @@ class SweepFile(_Strict):
     ranks_per_case: Annotated[int, Field(ge=1, le=4096, strict=True)] = 1
     launcher: str = "mpirun -n {ranks}"
     slurm: SlurmOptions = SlurmOptions()
+
+    @field_validator("launcher")
+    @classmethod
+    def _launcher(cls, v: str) -> str:
+        return check_launcher(v)
 
     @field_validator("collect")
     @classmethod
@@ -193,16 +264,8 @@ def load_sweep(path: str | Path, extra: tuple[str, ...] = ()) -> Sweep:
     """Read and validate a sweep file; ``extra`` are ``section.key=value`` overrides given
     on the command line for every case (after the file's ``set``). Raises ConfigError."""
     path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"sweep file {path}: not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"sweep file {path}: cannot be read ({exc.__class__.__name__})") from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark else ""
-        raise ConfigError(f"sweep file {path}: YAML syntax error{where}") from None
+    # the config loader's rules: a regular file of at most 1 MB, a key twice refused
+    data = parse_input_yaml(read_input_text(path, "sweep file"), path, "sweep file")
     if not isinstance(data, dict):
         raise ConfigError(f"sweep file {path}: must be a mapping with at least 'base'")
     try:

@@ -392,12 +392,28 @@ def _thin(a: np.ndarray, n: int) -> np.ndarray:
 SERIES_COLUMNS = ["case", "rung", "kind", "x", "y"]
 
 
+def _csv_rows(path: Path, required: list[str]) -> list[dict]:
+    """The rows of one of the ladder's CSV files; one that is not (no header with the
+    ``required`` columns, unreadable text) is ConfigError naming it (exit 2)."""
+    try:
+        with path.open(newline="") as fh:
+            reader = csv.DictReader(fh)
+            missing = [c for c in required if c not in (reader.fieldnames or [])]
+            rows = [] if missing else list(reader)
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise ConfigError(f"{path}: cannot be read ({exc}); delete it to run the cases "
+                          "again") from None
+    if missing:
+        raise ConfigError(f"{path}: not a ladder table (no column {', '.join(missing)}); "
+                          "delete it to run the cases again")
+    return rows
+
+
 def read_rows(path: Path) -> list[dict]:
     """The rows of ladder.csv (numbers as floats where they parse)."""
     if not path.exists():
         return []
-    with path.open() as fh:
-        rows = list(csv.DictReader(fh))
+    rows = _csv_rows(path, ["case"])
     for r in rows:
         for k, v in r.items():
             try:
@@ -412,9 +428,13 @@ def read_series(path: Path) -> dict:
     out: dict = {}
     if not path.exists():
         return out
-    with path.open() as fh:
-        for r in csv.DictReader(fh):
-            out.setdefault((r["case"], r["rung"], r["kind"]), []).append((float(r["x"]), float(r["y"])))
+    for i, r in enumerate(_csv_rows(path, SERIES_COLUMNS)):
+        try:
+            point = (float(r["x"]), float(r["y"]))
+        except (TypeError, ValueError):
+            raise ConfigError(f"{path}: row {i + 2}: x, y must be numbers; delete the file to "
+                              "run the cases again") from None
+        out.setdefault((r["case"], r["rung"], r["kind"]), []).append(point)
     return {k: np.asarray(v) for k, v in out.items()}
 
 

@@ -112,7 +112,7 @@ def test_resume_drops_a_step_whose_file_was_deleted(tmp_path, capsys):
     steps[1].unlink()                                    # a step before the checkpoint
     capsys.readouterr()
     assert _run(out, "--resume", end=0.008) == 0
-    assert "refers to a missing file: dropped" in capsys.readouterr().err
+    assert "is missing: dropped" in capsys.readouterr().err
     assert_whole(out)
 
 

@@ -143,7 +143,8 @@ def test_entities_to_geometry_with_no_entities(square):
 _SCRIPT = textwrap.dedent("""
     import sys
     from mpi4py import MPI
-    from dpcollapse.parallel import end_together
+    from dpcollapse.parallel import end_together, start
+    start()
     comm = MPI.COMM_WORLD
     if sys.argv[1] == "lone":
         if comm.rank == 1:

@@ -1,0 +1,144 @@
+"""An error on any rank ends the whole ``mpirun -n 2`` job within seconds, with one line,
+the documented exit status and run.json ``failed`` or ``interrupted`` (issue 30): a
+failure on one rank only, a mesher that never returns, a full disk, SIGTERM at start-up.
+
+These tests start ``mpirun`` themselves (they run serially, not under ``-m mpi``); a
+fault is injected by a small launcher script (``_LAUNCHER``) that patches one function
+and then runs the console script's entry point.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+
+from tests.helpers import OVERSUBSCRIBE, ROOT, clean_env
+from tests.system.test_faults import small_disk  # noqa: F401  (a fixture)
+
+RIGID = str(ROOT / "configs" / "rigid.yaml")
+TINY = ["--set", "geometry.mesh_size=0.04", "--set", "time.output_every=1",
+        "--set", "time.checkpoint_every=2"]
+
+_LAUNCHER = textwrap.dedent("""
+    import os, sys, time
+    from mpi4py import MPI
+    rank = MPI.COMM_WORLD.rank
+    fault = os.environ.get("DPC_FAULT", "")
+    if fault == "lone_mesh_error":          # a breakdown detected on rank 1 only
+        from dpcollapse.errors import MeshError
+        from dpcollapse.simulation import Simulation
+        original, calls = Simulation._check_energy, [0]
+        def check(self, m):
+            calls[0] += 1
+            if rank == 1 and calls[0] == 3:
+                raise MeshError("injected breakdown on rank 1")
+            return original(self, m)
+        Simulation._check_energy = check
+    elif fault == "stuck_mesher":           # gmsh looping forever at the first remesh
+        from dpcollapse.geometry import mesher
+        original, calls = mesher.build_polygon_model, [0]
+        def build(*args, **kwargs):
+            calls[0] += 1
+            if calls[0] == 2:
+                time.sleep(3600)
+            return original(*args, **kwargs)
+        mesher.build_polygon_model = build
+    from dpcollapse.cli import entry
+    sys.argv = ["dpcollapse", *sys.argv[1:]]
+    entry()
+""")
+
+
+def _env(**extra):
+    env = clean_env()
+    env.update(OVERSUBSCRIBE, DPCOLLAPSE_MPI_GRACE="2", OMPI_MCA_btl_vader_single_copy_mechanism="none",
+               PYTHONPATH=str(ROOT) + os.pathsep + env.get("PYTHONPATH", ""), **extra)
+    return env
+
+
+def _mpirun(tmp_path, *args, fault="", popen=False, **env):
+    launcher = tmp_path / "launch.py"
+    launcher.write_text(_LAUNCHER)
+    cmd = ["mpirun", "-n", "2", sys.executable, str(launcher), *map(str, args)]
+    kw = dict(env=_env(DPC_FAULT=fault, **env), cwd=ROOT, stdout=subprocess.PIPE,
+              stderr=subprocess.PIPE, text=True)
+    if popen:
+        return subprocess.Popen(cmd, **kw)
+    return subprocess.run(cmd, timeout=300, **kw)
+
+
+def _our_lines(err: str) -> list[str]:
+    assert "Traceback" not in err and "MPI_ERR" not in err, err[-3000:]
+    return [ln for ln in err.splitlines() if ln.startswith("dpcollapse: error: ")]
+
+
+def test_a_failure_on_one_rank_ends_the_job_with_its_status(tmp_path):
+    """Rank 1 fails alone while rank 0 goes on into the next step's solves: rank 1 tells
+    rank 0, waits the grace time, writes run.json and aborts the job with exit 4."""
+    out = tmp_path / "run"
+    t0 = time.monotonic()
+    proc = _mpirun(tmp_path, "run", RIGID, *TINY, "--set", "time.end_time=0.05", "--out", out,
+                   "--quiet", fault="lone_mesh_error")
+    assert proc.returncode == 4, proc.stderr[-3000:]
+    assert time.monotonic() - t0 < 120
+    lines = _our_lines(proc.stderr)
+    assert len(lines) == 1 and "injected breakdown on rank 1" in lines[0], proc.stderr[-3000:]
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "failed" and "injected breakdown" in info["summary"]["error"]
+
+
+def test_a_mesher_that_never_returns_is_a_mesh_failure(tmp_path):
+    """gmsh looping on a degenerate boundary (seen at the 40° mu(I) bed under mpirun): the
+    watchdog ends the job with exit 4 and one line once the time bound has passed."""
+    out = tmp_path / "run"
+    t0 = time.monotonic()
+    proc = _mpirun(tmp_path, "run", RIGID, *TINY, "--set", "time.end_time=0.05", "--set",
+                   "numerics.remesh_min_angle=59", "--out", out, "--quiet",
+                   fault="stuck_mesher", DPCOLLAPSE_MESH_TIME_LIMIT="3")
+    assert proc.returncode == 4, proc.stderr[-3000:]
+    assert time.monotonic() - t0 < 120
+    lines = _our_lines(proc.stderr)
+    assert len(lines) == 1 and "meshing did not finish within 3 s" in lines[0], proc.stderr[-3000:]
+    assert json.loads((out / "run.json").read_text())["status"] == "failed"
+
+
+def test_a_full_disk_under_mpirun_is_an_io_failure(small_disk):  # noqa: F811
+    out = small_disk / "run"
+    proc = _mpirun(small_disk.parent, "run", RIGID, *TINY, "--set", "time.end_time=0.05",
+                   "--out", out, "--quiet")
+    assert proc.returncode == 5, proc.stderr[-3000:]
+    lines = _our_lines(proc.stderr)
+    assert len(lines) == 1 and "I/O failure" in lines[0], proc.stderr[-3000:]
+
+
+@pytest.mark.parametrize("delay", [0.25, 1.0])
+def test_sigterm_during_start_up_under_mpirun_ends_without_a_traceback(tmp_path, delay):
+    """SIGTERM to both ranks while the run is being set up (at 0.25 s it used to hit an
+    import: "ImportError: initialization failed", exit 1): exit 130, one line, no
+    MPI_ERR_TRUNCATE, no traceback. (SIGTERM to mpirun itself: Open MPI 4 exits 1.)"""
+    out = tmp_path / "run"
+    proc = _mpirun(tmp_path, "run", RIGID, "--out", out, "--quiet", popen=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and not (out / ".lock").exists():
+        time.sleep(0.02)
+    time.sleep(delay)
+    for child in _children(proc.pid):
+        os.kill(child, signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err[-3000:]
+    lines = _our_lines(err)
+    assert len(lines) == 1 and "interrupted" in lines[0], err[-3000:]
+
+
+def _children(pid: int) -> list[int]:
+    """The python processes mpirun started (the ranks)."""
+    out = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout
+    return [int(p) for p in out.split()]
