@@ -23,11 +23,15 @@ What changed, and where it is handled:
 - ``entities_to_geometry`` and ``distribute_entity_data`` moved from ``dolfinx.cpp`` to
   Python wrappers; on 0.9.0 an empty entity list kills the process (guarded here);
 - dolfinx_mpc's matrix creation and ``homogenize`` (a vector in 0.5, a Function in ≥ 0.9);
-- ADIOS2's ``VTXWriter`` exists only where DOLFINx was built with ADIOS2 (not 0.5 on Debian 12).
+- ADIOS2's ``VTXWriter`` exists only where DOLFINx was built with ADIOS2 (not 0.5 on Debian 12);
+- the build (:data:`DOLFINX_BUILD`): Debian's packages, or the PyPI wheel
+  ``dolfinx-solver-real`` of the pip path (its own PETSc, MUMPS and OpenBLAS, so its
+  round-off differs from Debian's 0.11: the regression values are kept per build).
 """
 
 from __future__ import annotations
 
+import importlib.util
 import re
 
 import dolfinx
@@ -49,6 +53,8 @@ def _version_tuple(text: str) -> tuple[int, int, int]:
 #: (major, minor, patch) of the DOLFINx in use.
 DOLFINX_VERSION = _version_tuple(dolfinx.__version__)
 DOLFINX_VERSION_TEXT = dolfinx.__version__
+#: "wheel" for the PyPI wheel of the pip path (``dolfinx-solver-real``), else "distribution".
+DOLFINX_BUILD = "wheel" if importlib.util.find_spec("dolfinx_solver") else "distribution"
 #: Elements from basix.ufl, ``fem.functionspace``, 2D-array dofmaps (DOLFINx ≥ 0.7).
 _BASIX_ELEMENTS = DOLFINX_VERSION >= (0, 7, 0)
 #: ``interpolation_points`` a property, collapse dofs a list, ``create_vector(V)``, gmsh module.

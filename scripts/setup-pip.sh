@@ -27,7 +27,7 @@ import platform
 libc, version = platform.libc_ver()
 parts = tuple(int(p) for p in version.split(".")[:2]) if version else (0, 0)
 ok = platform.system() == "Linux" and platform.machine() == "x86_64" and libc == "glibc" and parts >= (2, 34)
-print("ok" if ok else f"{platform.system()} {platform.machine()} {libc or "no glibc"} {version}")')"
+print("ok" if ok else " ".join([platform.system(), platform.machine(), libc or "no glibc", version]))')"
 [ "$platform_ok" = ok ] ||
   fail "no DOLFINx wheel for this platform ($platform_ok): the wheel is Linux x86_64 with glibc >= 2.34; use conda-forge, Spack or a container (docs/versions.md)"
 cc="${CC:-cc}"

@@ -29,8 +29,10 @@ from dpcollapse import compat
 from dpcollapse.io.diagnostics import read_diagnostics
 from tests.regression.record import CASES, run_case
 
-_FILES = {(0, 5): "reference.json", (0, 9): "reference-0.9.json", (0, 11): "reference-0.11.json"}
-_FILE = _FILES.get(tuple(compat.DOLFINX_VERSION[:2]))
+_FILES = {(0, 5): "reference.json", (0, 9): "reference-0.9.json", (0, 11): "reference-0.11.json",
+          (0, 11, "wheel"): "reference-0.11-wheel.json"}
+_KEY = tuple(compat.DOLFINX_VERSION[:2]) + (("wheel",) if compat.DOLFINX_BUILD == "wheel" else ())
+_FILE = _FILES.get(_KEY)
 pytestmark = pytest.mark.skipif(
     _FILE is None, reason=f"no stored values for DOLFINx {compat.DOLFINX_VERSION_TEXT}")
 REFERENCE = json.loads((Path(__file__).parent / _FILE).read_text()) if _FILE else {}
