@@ -10,8 +10,9 @@
 # RELEASE is a Debian suite: trixie (DOLFINx 0.9), sid (DOLFINx 0.11), bookworm (0.5).
 # The chroot lives in $DPCOLLAPSE_CHROOT_DIR/RELEASE (default /var/tmp/dpcollapse-chroot);
 # it is reused when it was completed before, rebuilt from scratch with --fresh.
-# --pip: a separate chroot RELEASE-pip whose only Debian packages are a Python with its
-# headers and a C compiler (what FFCx's JIT needs); set-up is `./scripts/setup.sh --pip`
+# --pip: a separate chroot RELEASE-pip whose only Debian packages beyond minbase are a Python
+# with its headers, a C compiler (FFCx's JIT) and gmsh's X11/GLU libraries, no FEniCSx, MPI
+# or PETSc (checked); set-up is `./scripts/setup.sh --pip`
 # (DOLFINx 0.11 and MPICH from PyPI wheels; needs Python >= 3.12, i.e. trixie or later),
 # and the MPI tests run under the wheel's MPICH (the venv's bin/ first on PATH).
 # Needs root, debootstrap (installed if missing) and about 5.5 GB of disk per release.
