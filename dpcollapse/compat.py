@@ -26,7 +26,8 @@ What changed, and where it is handled:
 - ADIOS2's ``VTXWriter`` exists only where DOLFINx was built with ADIOS2 (not 0.5 on Debian 12);
 - the build (:data:`DOLFINX_BUILD`): Debian's packages, or the PyPI wheel
   ``dolfinx-solver-real`` of the pip path (its own PETSc, MUMPS and OpenBLAS, so its
-  round-off differs from Debian's 0.11: the regression values are kept per build).
+  round-off differs from Debian's 0.11: the regression values are kept per build), and
+  whose PETSc has no hypre (:func:`amg_type`: PETSc's own GAMG instead of BoomerAMG).
 """
 
 from __future__ import annotations
@@ -202,6 +203,12 @@ def create_vector(L) -> PETSc.Vec:
     if _V010:
         return fem_petsc.create_vector(L.function_spaces[0])
     return fem_petsc.create_vector(L)
+
+
+def amg_type() -> str:
+    """The algebraic multigrid of this PETSc: "hypre" (BoomerAMG: Debian's builds) or, where
+    PETSc was built without hypre (the PyPI wheel of the pip path), PETSc's own "gamg"."""
+    return "hypre" if PETSc.Sys.hasExternalPackage("hypre") else "gamg"
 
 
 def create_matrix(a) -> PETSc.Mat:
