@@ -23,11 +23,17 @@ What changed, and where it is handled:
 - ``entities_to_geometry`` and ``distribute_entity_data`` moved from ``dolfinx.cpp`` to
   Python wrappers; on 0.9.0 an empty entity list kills the process (guarded here);
 - dolfinx_mpc's matrix creation and ``homogenize`` (a vector in 0.5, a Function in ≥ 0.9);
-- ADIOS2's ``VTXWriter`` exists only where DOLFINx was built with ADIOS2 (not 0.5 on Debian 12).
+- ADIOS2's ``VTXWriter`` exists only where DOLFINx was built with ADIOS2 (not 0.5 on Debian 12);
+- the build (:data:`DOLFINX_BUILD`): Debian's packages, or the PyPI wheel
+  ``dolfinx-solver-real`` of the pip path (its own PETSc, MUMPS and OpenBLAS, so its
+  round-off differs from Debian's 0.11, within the regression tier's measured spread;
+  the ParaView read-backs need Debian's pvpython), and
+  whose PETSc has no hypre (:func:`amg_type`: PETSc's own GAMG instead of BoomerAMG).
 """
 
 from __future__ import annotations
 
+import importlib.util
 import re
 
 import dolfinx
@@ -49,6 +55,8 @@ def _version_tuple(text: str) -> tuple[int, int, int]:
 #: (major, minor, patch) of the DOLFINx in use.
 DOLFINX_VERSION = _version_tuple(dolfinx.__version__)
 DOLFINX_VERSION_TEXT = dolfinx.__version__
+#: "wheel" for the PyPI wheel of the pip path (``dolfinx-solver-real``), else "distribution".
+DOLFINX_BUILD = "wheel" if importlib.util.find_spec("dolfinx_solver") else "distribution"
 #: Elements from basix.ufl, ``fem.functionspace``, 2D-array dofmaps (DOLFINx ≥ 0.7).
 _BASIX_ELEMENTS = DOLFINX_VERSION >= (0, 7, 0)
 #: ``interpolation_points`` a property, collapse dofs a list, ``create_vector(V)``, gmsh module.
@@ -196,6 +204,12 @@ def create_vector(L) -> PETSc.Vec:
     if _V010:
         return fem_petsc.create_vector(L.function_spaces[0])
     return fem_petsc.create_vector(L)
+
+
+def amg_type() -> str:
+    """The algebraic multigrid of this PETSc: "hypre" (BoomerAMG: Debian's builds) or, where
+    PETSc was built without hypre (the PyPI wheel of the pip path), PETSc's own "gamg"."""
+    return "hypre" if PETSc.Sys.hasExternalPackage("hypre") else "gamg"
 
 
 def create_matrix(a) -> PETSc.Mat:

@@ -18,7 +18,8 @@ and the Schur complement S = −B A⁻¹ Bᵀ approximated à la Cahouet–Chaba
     Ŝ⁻¹ = −(M_ν⁻¹ + L⁻¹),   M_ν = ∫ (2/ν) p q dx,   L = ∫ (Δt/ρ) ∇p·∇q dx (p = 0 on the
                                                            free surface),
 
-M_ν⁻¹ by its diagonal and L⁻¹ by one BoomerAMG V-cycle: ν/2 is the Stokes viscosity of the
+M_ν⁻¹ by its diagonal and L⁻¹ by one BoomerAMG V-cycle (where PETSc has no hypre, the pip
+path's wheel: PETSc's GAMG for both V-cycles, ``compat.amg_type``): ν/2 is the Stokes viscosity of the
 secant iterate (−B(−div ν D)⁻¹Bᵀ ≈ −M_ν where viscosity dominates), and where inertia
 dominates −B(ρ/Δt M_u)⁻¹Bᵀ ≈ −(Δt/ρ) L. The viscosity-weighted mass matrix alone (with a
 cell-local ρh²/Δt term) needed 193 (1 cm) and 317 (0.5 cm) iterations on the first solve
@@ -55,6 +56,12 @@ DEFAULT_OPTIONS = {
     "fieldsplit_u_pc_hypre_boomeramg_interp_type": "ext+i",
     "fieldsplit_u_pc_hypre_boomeramg_strong_threshold": 0.5,
     "fieldsplit_u_pc_hypre_boomeramg_agg_nl": 1,
+    "fieldsplit_p_ksp_type": "preonly",
+}
+#: The same where PETSc has no hypre (the pip path's wheel): one V-cycle of PETSc's GAMG.
+GAMG_OPTIONS = {
+    "fieldsplit_u_ksp_type": "preonly",
+    "fieldsplit_u_pc_type": "gamg",
     "fieldsplit_p_ksp_type": "preonly",
 }
 
@@ -94,7 +101,8 @@ class BlockSolver:
         pc.setFieldSplitType(PETSc.PC.CompositeType.SCHUR)
         pc.setFieldSplitSchurFactType(PETSc.PC.SchurFactType.UPPER)
         opts = PETSc.Options()
-        for key, value in DEFAULT_OPTIONS.items():
+        defaults = DEFAULT_OPTIONS if compat.amg_type() == "hypre" else GAMG_OPTIONS
+        for key, value in defaults.items():
             if not opts.hasName(prefix + key):
                 opts[prefix + key] = value
         ksp.setFromOptions()
@@ -183,8 +191,10 @@ class _CahouetChabard:
         self.ksp = PETSc.KSP().create(comm)
         self.ksp.setOptionsPrefix(prefix)
         self.ksp.setType("preonly")
-        self.ksp.getPC().setType("hypre")
-        self.ksp.getPC().setHYPREType("boomeramg")
+        amg = compat.amg_type()
+        self.ksp.getPC().setType(amg)
+        if amg == "hypre":
+            self.ksp.getPC().setHYPREType("boomeramg")
         self.ksp.setFromOptions()
         self.inverse_diagonal = None
         self._work = None

@@ -8,6 +8,10 @@ reduced system lives on ``mpc.function_space``; ``solve`` back-substitutes the s
 copies the result into a Function on the ORIGINAL space V, so every form whose coefficients
 live on V (or on its collapsed subspaces) keeps working unchanged.
 
+Where dolfinx_mpc is missing (the pip path), ``periodic_system`` builds the same
+constrained system with PETSc alone (``solvers.periodic_petsc``); ``DPCOLLAPSE_PERIODIC``
+(auto, dolfinx_mpc, petsc) forces one of the two.
+
 Usage (the caller owns the solver and hands it the operator, as with ``LinearSystem``)::
 
     system = PeriodicLinearSystem(a, L, bcs, W, facet_tags, RIGHT, (-length, 0.0))
@@ -29,10 +33,11 @@ e.g. the bed/right-side corner under no-slip keeps its bc value instead of becom
 
 from __future__ import annotations
 
+import importlib.util
+import os
 import time
 from typing import Sequence
 
-import dolfinx_mpc
 import numpy as np
 from dolfinx import fem
 from dolfinx.fem import petsc as fem_petsc
@@ -56,6 +61,62 @@ def leaf_subspaces(V: fem.FunctionSpace) -> list[fem.FunctionSpace]:
     for i in range(V.num_sub_spaces):
         leaves.extend(leaf_subspaces(V.sub(i)))
     return leaves
+
+
+#: Environment variable choosing the periodic constraint: "auto" (dolfinx_mpc where it is
+#: installed, else ``solvers.periodic_petsc``), "dolfinx_mpc" or "petsc".
+PERIODIC_ENV = "DPCOLLAPSE_PERIODIC"
+
+
+def constraint_backend() -> str:
+    """"dolfinx_mpc" or "petsc": the implementation ``periodic_system`` will use."""
+    choice = os.environ.get(PERIODIC_ENV, "auto")
+    if choice not in ("auto", "dolfinx_mpc", "petsc"):
+        raise ValueError(f"{PERIODIC_ENV}={choice!r}: allowed auto, dolfinx_mpc, petsc")
+    if choice == "auto":
+        return "dolfinx_mpc" if importlib.util.find_spec("dolfinx_mpc") else "petsc"
+    return choice
+
+
+def periodic_system(a, L, bcs, V, facet_tags, slave_tag: int, translation, subspaces=None):
+    """The periodic linear system of (a, L): ``PeriodicLinearSystem`` (dolfinx_mpc) or,
+    where dolfinx_mpc is missing (the pip path), ``periodic_petsc.PeriodicPetscSystem``;
+    the same contract and, for matching sides, the same constrained system."""
+    if constraint_backend() == "dolfinx_mpc":
+        return PeriodicLinearSystem(a, L, bcs, V, facet_tags, slave_tag, translation, subspaces)
+    from dpcollapse.solvers.periodic_petsc import PeriodicPetscSystem
+
+    return PeriodicPetscSystem(a, L, bcs, V, facet_tags, slave_tag, translation, subspaces)
+
+
+def check_images(mesh, facets, translation: np.ndarray, gdim: int) -> None:
+    """The images of the slave facets' vertices under ``translation`` (3 components) must
+    lie in the mesh's bounding box (a translation of the wrong sign would otherwise leave
+    slaves silently unconstrained)."""
+    comm = mesh.comm
+    x = mesh.geometry.x[:, :gdim]
+    lo = np.full(gdim, np.inf)
+    hi = np.full(gdim, -np.inf)
+    if len(x):
+        lo[:], hi[:] = x.min(axis=0), x.max(axis=0)
+    comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)
+    comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
+    tol = 1e-8 * max(float(np.max(hi - lo)), 1.0)
+    fdim = mesh.topology.dim - 1
+    mesh.topology.create_connectivity(fdim, 0)
+    f2v = mesh.topology.connectivity(fdim, 0)
+    verts = np.unique(np.concatenate([f2v.links(f) for f in facets])) if len(facets) else \
+        np.zeros(0, dtype=np.int32)
+    nodes = compat.entities_to_geometry(mesh, 0, verts).ravel() if len(verts) else \
+        np.zeros(0, dtype=np.int32)
+    images = mesh.geometry.x[nodes, :gdim] + translation[:gdim]
+    bad = int(np.sum(np.any((images < lo - tol) | (images > hi + tol), axis=1)))
+    bad = comm.allreduce(bad, op=MPI.SUM)
+    if bad:
+        raise ValueError(
+            f"{bad} slave vertices are mapped outside the mesh by translation "
+            f"{tuple(translation[:gdim])}: it must map the slave side onto the master "
+            "side (e.g. (-L, 0) for slave x = L, master x = 0)")
 
 
 class PeriodicLinearSystem:
@@ -87,7 +148,7 @@ class PeriodicLinearSystem:
         self.translation = shift
         fdim = mesh.topology.dim - 1
         slave_facets = facet_tags.indices[facet_tags.values == slave_tag].astype(np.int32)
-        self._check_images(slave_facets, fdim, gdim)
+        check_images(mesh, slave_facets, shift, gdim)
 
         if subspaces is None:
             leaves = leaf_subspaces(V)
@@ -96,6 +157,8 @@ class PeriodicLinearSystem:
 
         def relation(x):
             return x + shift[:, None]
+
+        import dolfinx_mpc
 
         mpc = dolfinx_mpc.MultiPointConstraint(V)
         for S in leaves:
@@ -114,33 +177,6 @@ class PeriodicLinearSystem:
         assert self._owned == Vm.dofmap.index_map.size_local * Vm.dofmap.index_map_bs
 
     # ------------------------------------------------------------------ checks
-    def _check_images(self, facets, fdim, gdim) -> None:
-        """The images of the slave facets' vertices must lie in the mesh's bounding box
-        (a translation of the wrong sign would otherwise leave slaves silently unconstrained)."""
-        mesh = self.V.mesh
-        x = mesh.geometry.x[:, :gdim]
-        lo = np.full(gdim, np.inf)
-        hi = np.full(gdim, -np.inf)
-        if len(x):
-            lo[:], hi[:] = x.min(axis=0), x.max(axis=0)
-        self.comm.Allreduce(MPI.IN_PLACE, lo, op=MPI.MIN)
-        self.comm.Allreduce(MPI.IN_PLACE, hi, op=MPI.MAX)
-        tol = 1e-8 * max(float(np.max(hi - lo)), 1.0)
-        mesh.topology.create_connectivity(fdim, 0)
-        f2v = mesh.topology.connectivity(fdim, 0)
-        verts = np.unique(np.concatenate([f2v.links(f) for f in facets])) if len(facets) else \
-            np.zeros(0, dtype=np.int32)
-        nodes = compat.entities_to_geometry(mesh, 0, verts).ravel() if len(verts) else \
-            np.zeros(0, dtype=np.int32)
-        images = mesh.geometry.x[nodes, :gdim] + self.translation[:gdim]
-        bad = int(np.sum(np.any((images < lo - tol) | (images > hi + tol), axis=1)))
-        bad = self.comm.allreduce(bad, op=MPI.SUM)
-        if bad:
-            raise ValueError(
-                f"{bad} slave vertices are mapped outside the mesh by translation "
-                f"{tuple(self.translation[:gdim])}: it must map the slave side onto the master "
-                "side (e.g. (-L, 0) for slave x = L, master x = 0)")
-
     def _check_slave_count(self, leaves, facets, fdim) -> None:
         """Every owned, non-Dirichlet dof on the slave facets must have become a slave."""
         marked = np.zeros(self._size_with_ghosts(), dtype=bool)
@@ -170,6 +206,8 @@ class PeriodicLinearSystem:
     def assemble_matrix(self) -> PETSc.Mat:
         """Reduced matrix: slave rows/cols folded onto their masters, 1 on the slave and
         bc diagonals (dolfinx_mpc.assemble_matrix does zeroEntries and final assembly)."""
+        import dolfinx_mpc
+
         t0 = time.perf_counter()
         dolfinx_mpc.assemble_matrix(self.a, self.mpc, bcs=self.bcs, A=self.A)
         self.seconds["assembly"] += time.perf_counter() - t0
@@ -177,6 +215,8 @@ class PeriodicLinearSystem:
 
     def assemble_vector(self) -> PETSc.Vec:
         """Reduced right-hand side, lifted by the bcs, bc values set on owned bc dofs."""
+        import dolfinx_mpc
+
         t0 = time.perf_counter()
         dolfinx_mpc.assemble_vector(self.L, self.mpc, b=self.b)   # zeroes b (incl. ghosts)
         dolfinx_mpc.apply_lifting(self.b, [self.a], [self.bcs], self.mpc)

@@ -42,14 +42,17 @@ def test_quick_map_classes(quick_map):
 def test_quick_map_fallback_columns(quick_map):
     """The fallback count is Newton's alone (Picard runs report 0). On the plug Newton needs
     none at ε = 1e-1 and carries nearly every step at ε = 1e-6 (measured: 2 fallbacks in 200
-    steps, after the static layer appears); no step is halved in these runs."""
+    steps, after the static layer appears); no step is halved in the runs that finish. (Plain
+    Picard at ε = 1e-6 is stopped by the CPU cap near t = 0.72 s, where its steps start to
+    be halved: how many it halves before the cap depends on the CPU's speed, 1 to 5 measured.)"""
     _, rows = quick_map
     assert int(rows[("newton", 0.1)]["fallbacks"]) == 0
     assert int(rows[("newton", 1e-6)]["fallbacks"]) < int(rows[("newton", 1e-6)]["steps"]) / 10
     for key in [("picard", 0.1), ("picard", 1e-6)]:
         assert int(rows[key]["fallbacks"]) == 0, key
     for key in rows:
-        assert int(rows[key]["halvings"]) == 0, key
+        if rows[key]["class"] != "too_slow":
+            assert int(rows[key]["halvings"]) == 0, key
 
 
 def test_rigid_quick_newton_falls_back(tmp_path):

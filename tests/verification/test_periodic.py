@@ -1,4 +1,6 @@
-"""PeriodicLinearSystem: a periodic Stokes channel on an inclined bed [0, L] × [0, h].
+"""The periodic constraint, both implementations (dolfinx_mpc's ``PeriodicLinearSystem``
+where it is installed, and ``PeriodicPetscSystem``, Pᵀ A P with PETSc alone): a periodic
+Stokes channel on an inclined bed [0, L] × [0, h].
 
 Slope coordinates, f = g (sin θ, −cos θ), no-slip bed, stress-free top, periodic in x for
 velocity and pressure. The steady solution u = (ρ g sinθ (h y − y²/2)/η, 0),
@@ -19,12 +21,28 @@ from dpcollapse import compat
 from dpcollapse.rheology.drucker_prager import strain_rate
 from dpcollapse.solvers.assembly import LinearSystem
 from dpcollapse.solvers.linear import DirectSolver
-from dpcollapse.solvers.periodic import PeriodicLinearSystem, leaf_subspaces
+from dpcollapse.solvers.periodic import PERIODIC_ENV, leaf_subspaces, periodic_system
 
 LENGTH, HEIGHT = 0.2, 0.05
 NX, NY = 16, 4
 LEFT, RIGHT, BOTTOM, TOP = 1, 2, 3, 4
 RHO, G, ETA, THETA = 1500.0, 9.81, 2.0, math.radians(30.0)
+
+
+try:
+    import dolfinx_mpc  # noqa: F401
+    HAVE_MPC = True
+except ImportError:   # the pip path: only the PETSc implementation
+    HAVE_MPC = False
+
+
+@pytest.fixture(autouse=True, params=["dolfinx_mpc", "petsc"])
+def backend(request, monkeypatch):
+    """Every test of this file with each implementation of the constraint."""
+    if request.param == "dolfinx_mpc" and not HAVE_MPC:
+        pytest.skip("dolfinx_mpc is not installed (pip path)")
+    monkeypatch.setenv(PERIODIC_ENV, request.param)
+    return request.param
 
 
 def u_exact(x):
@@ -77,9 +95,8 @@ class Channel:
         dofs = fem.locate_dofs_topological((sub, Vs), 1, bed)
         return fem.dirichletbc(fem.Function(Vs), dofs, sub)
 
-    def periodic(self, bcs):
-        return PeriodicLinearSystem(self.a, self.L, bcs, self.W, self.facet_tags, RIGHT,
-                                    (-LENGTH, 0.0))
+    def periodic(self, bcs, translation=(-LENGTH, 0.0)):
+        return periodic_system(self.a, self.L, bcs, self.W, self.facet_tags, RIGHT, translation)
 
     def split(self, w):
         """(velocity, pressure) local arrays (owned + ghosts) of a Function on W."""
@@ -150,8 +167,7 @@ def test_periodic_stokes_channel_is_exact():
 def test_translation_of_wrong_sign_is_rejected():
     ch = Channel(MPI.COMM_SELF)
     with pytest.raises(ValueError, match="translation"):
-        PeriodicLinearSystem(ch.a, ch.L, [ch.bed_bc()], ch.W, ch.facet_tags, RIGHT,
-                             (LENGTH, 0.0))
+        ch.periodic([ch.bed_bc()], (LENGTH, 0.0))
 
 
 def _shift_classes(X):

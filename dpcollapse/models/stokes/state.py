@@ -182,10 +182,10 @@ class StokesState:
         bcs = self._dirichlet_bcs()
         slave = self.params.periodic_slave
         if slave is not None:
-            from dpcollapse.solvers.periodic import PeriodicLinearSystem
+            from dpcollapse.solvers.periodic import periodic_system
 
-            return PeriodicLinearSystem(a, L, bcs, self.W, self.tagged.facet_tags, slave.tag,
-                                        slave.translation)
+            return periodic_system(a, L, bcs, self.W, self.tagged.facet_tags, slave.tag,
+                                   slave.translation)
         return LinearSystem(a, L, bcs)
 
     def _has_tag(self, tag: int) -> bool:
