@@ -4,7 +4,8 @@
 # each at the end; the exit status is non-zero if either failed.
 # Extra arguments go to both pytest runs (e.g. -k config).
 #   DPCOLLAPSE_TEST_JOBS  serial workers (default: auto = one per core; 0 = no xdist)
-#   DPCOLLAPSE_MPIEXEC    MPI launcher (default: mpirun)
+#   DPCOLLAPSE_MPIEXEC    MPI launcher (default: the pip path's .venv/bin/mpiexec where it
+#                         exists — the mpich wheel's —, else mpirun)
 set -uo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
@@ -36,9 +37,12 @@ start=$SECONDS
 serial=${PIPESTATUS[0]}
 serial_time=$((SECONDS - start))
 
-echo "== MPI tests (mpirun -n 2)"
+mpiexec=mpirun
+[ -x .venv/bin/mpiexec ] && mpiexec=.venv/bin/mpiexec
+mpiexec="${DPCOLLAPSE_MPIEXEC:-$mpiexec}"
+echo "== MPI tests ($mpiexec -n 2)"
 start=$SECONDS
-${DPCOLLAPSE_MPIEXEC:-mpirun} -n 2 .venv/bin/python -m pytest -q -m mpi -p no:cacheprovider \
+"$mpiexec" -n 2 .venv/bin/python -m pytest -q -m mpi -p no:cacheprovider \
     --color=no "$@" 2>&1 | tee "$logs/mpi"
 mpi=${PIPESTATUS[0]}
 mpi_time=$((SECONDS - start))
