@@ -83,3 +83,17 @@ def test_courant_limited_step(tmp_path):
     # cell is at most REFINED h_min (else the mesh is rebuilt), so Δt ≤ Co REFINED h_min/|u|
     courant = dt[1:] * speed[:-1] / (REFINED * FINE)
     assert courant.max() <= 0.5 + 1e-9 and courant.max() > 0.2
+
+
+def test_resume_on_the_adaptive_mesh(tmp_path):
+    """A run stopped after a remesh and resumed (from the checkpoint's own mesh) ends where the
+    uninterrupted one does."""
+    over = ADAPTIVE + ["model.remesh_every=10", "time.checkpoint_every=10"]
+    whole = simulation(CONFIG, over + ["time.end_time=0.06"], tmp_path / "a", comm=MPI.COMM_SELF).run()
+    simulation(CONFIG, over + ["time.end_time=0.04"], tmp_path / "b", comm=MPI.COMM_SELF).run()
+    resumed = simulation(CONFIG, over + ["time.end_time=0.06"], tmp_path / "b", comm=MPI.COMM_SELF,
+                         resume=True).run()
+    assert resumed["steps"] == whole["steps"] and resumed["remeshes"] == whole["remeshes"] >= 2
+    for key in ("front", "max_height", "area"):
+        assert resumed[key] == pytest.approx(whole[key], rel=1e-9), key
+    assert resumed["kinetic_energy"] == pytest.approx(whole["kinetic_energy"], rel=1e-6)
