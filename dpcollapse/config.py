@@ -592,6 +592,29 @@ class TwoPhaseModel(_Section):
     grad_div: Number = _f(
         10.0, "", "gamma of the grad-div term gamma S (div u)(div v) with S the local secant "
         "viscosity of the mixture (0: off; docs/benchmarks/2026-12-02-two-phase-rest.md)", ge=0, le=100)
+    min_cell: Number | None = _f(
+        None, "m", "Adaptive mesh: cell size in the granular phase and its band (null: the uniform "
+        "structured box of geometry.mesh_size; equal to max_cell: the uniform box of this size)",
+        gt=0)
+    max_cell: Number | None = _f(
+        None, "m", "Adaptive mesh: cell size in the light fluid far from the granular phase "
+        "(null: geometry.mesh_size)", gt=0)
+    refine_fraction: Number = _f(
+        0.01, "", "Adaptive mesh: cells with c above this are refined (with their band)", gt=0, lt=1)
+    refine_band: Number = _f(
+        4.0, "", "Adaptive mesh: width of the fine band around the granular cells, in min_cell",
+        ge=1, le=50)
+    refine_grading: Number = _f(
+        0.3, "", "Adaptive mesh: growth of the cell size per unit distance beyond the band",
+        gt=0, le=2)
+    remesh_every: Count = _f(
+        0, "", "Adaptive mesh: rebuild every this many steps as well (0: only when a granular "
+        "cell is coarser than 1.5 min_cell)", ge=0)
+    adaptive_dt: bool = _f(
+        False, "", "Limit the step by the flow's Courant number: dt <= step_courant h_K/|u_K| "
+        "over the cells with c > refine_fraction (with time.dt as the largest step)")
+    step_courant: Number = _f(
+        0.5, "", "Courant number of adaptive_dt (cells crossed per step)", gt=0, le=2)
 
 
 def _name_of(value: Any) -> str:
@@ -744,6 +767,9 @@ class Config(_Section):
         if m.box_height < height:
             raise ConfigError(f"model.box_height = {_fmt(m.box_height)}: must be >= {height:g} m "
                               f"(the box must contain the {what})")
+        if m.min_cell is not None and m.min_cell > (m.max_cell or g.mesh_size):
+            raise ConfigError(f"model.min_cell = {_fmt(m.min_cell)}: must be <= model.max_cell "
+                              f"= {(m.max_cell or g.mesh_size):g} m (null: geometry.mesh_size)")
         if m.box_length < 2 * g.mesh_size or m.box_height < 2 * g.mesh_size:
             raise ConfigError(f"geometry.mesh_size = {_fmt(g.mesh_size)}: must be at most half "
                               "of model.box_length and model.box_height with model.name = two_phase")

@@ -38,11 +38,13 @@ from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoin
 from dpcollapse.io.law_fields import LawFields
 from dpcollapse.models.stokes.regularized import picard_settings
 from dpcollapse.models.stokes.state import FlowParameters
+from dpcollapse.models.two_phase.adaptive import AdaptiveBox, SizeField, equivalent_size
 from dpcollapse.models.two_phase.flow import LightFluid, TwoPhaseFlow
 from dpcollapse.models.two_phase.fraction import owned_triangles
 from dpcollapse.models.two_phase.layer import MEASURES as LAYER_MEASURES
 from dpcollapse.models.two_phase.layer import LayerTracer
 from dpcollapse.models.two_phase.overlap import rectangle_fraction
+from dpcollapse.models.two_phase.remap import strip_overlaps
 from dpcollapse.rheology.choice import law_from_material
 from dpcollapse.scenes.base import Boundary, BoundaryKind, bed_boundary, film_threshold
 
@@ -52,6 +54,27 @@ def box_mesh(comm, length: float, height: float, mesh_size: float) -> TaggedMesh
     LEFT (the symmetry wall), RIGHT and SURFACE (the open top)."""
     nx, ny = max(2, round(length / mesh_size)), max(2, round(height / mesh_size))
     return structured_rectangle(comm, length, height, nx, ny)
+
+
+def cell_sizes(cfg) -> tuple[float, float]:
+    """(fine, coarse) cell sizes: ``model.min_cell``, ``model.max_cell`` (null:
+    ``geometry.mesh_size``)."""
+    m, h = cfg.model, cfg.geometry.mesh_size
+    return (m.min_cell if m.min_cell is not None else h,
+            m.max_cell if m.max_cell is not None else h)
+
+
+def is_adaptive(cfg) -> bool:
+    """The mesh follows the granular phase: ``model.min_cell`` below the coarse size."""
+    fine, coarse = cell_sizes(cfg)
+    return cfg.model.min_cell is not None and fine < coarse
+
+
+def adaptive_domain(cfg) -> AdaptiveBox:
+    m = cfg.model
+    fine, coarse = cell_sizes(cfg)
+    size = SizeField(fine, coarse, m.refine_band * fine, m.refine_grading)
+    return AdaptiveBox(m.box_length, m.box_height, size, m.refine_fraction, m.remesh_every)
 
 
 def box_boundaries(cfg) -> tuple[Boundary, ...]:
@@ -77,6 +100,11 @@ def make_flow(tagged: TaggedMesh, cfg) -> TwoPhaseFlow:
     return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
 
 
+def _shortest_edges(triangles: np.ndarray) -> np.ndarray:
+    """The shortest edge of each triangle (n, 3, 2) [m]."""
+    return np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).min(axis=1)
+
+
 class TwoPhaseDiscretization:
     """The two-phase flow on the box, its measures and output fields (``loop``)."""
 
@@ -94,7 +122,8 @@ class TwoPhaseDiscretization:
         self.fraction = flow.fraction
         g, model = cfg.geometry, cfg.model
         grains = cfg.material.grain_diameter if cfg.material.rheology == "mu_i" else 0.0
-        self.film_threshold = film_threshold(grains, g.mesh_size)
+        fine = cell_sizes(cfg)[0]
+        self.film_threshold = film_threshold(grains, fine)
         self.threshold = model.fraction_threshold
         # the erodible scene: c_L, and the fronts above the layer (2 h_e, as the ALE scene)
         self.layer = LayerTracer(flow, g) if g.shape == "erodible" else None
@@ -102,18 +131,24 @@ class TwoPhaseDiscretization:
         self.thick_floor = max(self.film_threshold, floor)
         if self.layer:
             self.extra_measures = type(self).extra_measures + LAYER_MEASURES
-        # columns of cells for h(x) = ∫ c dy: bins of the structured mesh along x
-        self.nx = max(2, round(model.box_length / g.mesh_size))
+        # columns for h(x) = ∫ c dy: strips of the structured mesh's width along x (on the
+        # adaptive mesh: of min_cell)
+        self.nx = max(2, round(model.box_length / fine))
         self.dx_bin = model.box_length / self.nx
         n = compat.num_owned_cells(mesh)
         tri = owned_triangles(mesh)
         self._cells = compat.cell_dofs(self.fraction.S0)[:n, 0]
-        self._bin = np.clip((tri[:, :, 0].mean(axis=1) / self.dx_bin).astype(int), 0, self.nx - 1)
         self._xmax = tri[:, :, 0].max(axis=1)
         self._above = tri[:, :, 1].mean(axis=1) > floor    # cells counted by the mass front
         self._volume = self.fraction.volume[self._cells] if len(self._cells) else np.zeros(0)
-        self._min_edge = min(model.box_length / self.nx,
-                             model.box_height / max(2, round(model.box_height / g.mesh_size)))
+        if is_adaptive(cfg):   # |K ∩ strip_j| (exact: the cells straddle the strips)
+            self._strip_cell, self._bin, self._strip_area = strip_overlaps(tri, self.dx_bin, self.nx)
+        else:                  # each structured cell lies in the strip of its centroid
+            self._strip_cell, self._strip_area = np.arange(len(tri)), self._volume
+            self._bin = np.clip((tri[:, :, 0].mean(axis=1) / self.dx_bin).astype(int), 0, self.nx - 1)
+        self._size = equivalent_size(tri)                    # h_K of the owned cells
+        self._min_edge = self.comm.allreduce(
+            float(_shortest_edges(tri).min()) if len(tri) else math.inf, op=MPI.MIN)
         rho = cfg.material.density
         u, p = ufl.split(flow.solution)
         c = self.fraction.c
@@ -156,12 +191,23 @@ class TwoPhaseDiscretization:
     def thickness(self) -> np.ndarray:
         """h_j = ∫ c dy of each column j of cells (width ``dx_bin``) [m], on every rank."""
         own = self.fraction.c.x.array[self._cells]
-        local = np.bincount(self._bin, weights=own * self._volume, minlength=self.nx)
+        local = np.bincount(self._bin, weights=own[self._strip_cell] * self._strip_area,
+                            minlength=self.nx)
         return self.comm.allreduce(local, op=MPI.SUM) / self.dx_bin
 
     def max_step(self) -> float:
-        """None of its own: the advection sub-cycles inside the step."""
-        return math.inf
+        """With ``model.adaptive_dt``: Co min_K h_K / |uⁿ_K| over the cells with c >
+        ``model.refine_fraction`` (Co = ``model.step_courant``, h_K the equilateral side of
+        |K|, |uⁿ_K| at the midpoint); inf at rest and without it (the advection of c
+        sub-cycles inside the step)."""
+        model = self.cfg.model
+        if not model.adaptive_dt:
+            return math.inf
+        self._speed.interpolate(self._speed_expr)
+        speed = self._speed.x.array[self._cells]
+        moving = (self.fraction.c.x.array[self._cells] > model.refine_fraction) & (speed > 0)
+        local = float((self._size[moving] / speed[moving]).min()) if moving.any() else math.inf
+        return model.step_courant * self.comm.allreduce(local, op=MPI.MIN)
 
     def _granular_speed(self) -> np.ndarray:
         self._speed.interpolate(self._speed_expr)
@@ -233,22 +279,26 @@ class TwoPhaseFactory:
 
     def __init__(self, cfg):
         self.cfg = cfg
+        self._domain = adaptive_domain(cfg) if is_adaptive(cfg) else FixedDomain()
 
     @classmethod
     def from_config(cls, cfg) -> TwoPhaseFactory:
         return cls(cfg)
 
-    def domain(self) -> FixedDomain:
-        """The box: nothing moves, nothing is remeshed."""
-        return FixedDomain()
+    def domain(self) -> FixedDomain | AdaptiveBox:
+        """The box: nothing moves; the adaptive mesh (``adaptive.AdaptiveBox``) is rebuilt
+        around the granular phase, the uniform one never."""
+        return self._domain
 
     def _box(self, comm) -> TaggedMesh:
+        """The uniform structured box: cells of ``model.min_cell`` (= ``max_cell``), else of
+        ``geometry.mesh_size`` (today's mesh)."""
         m = self.cfg.model
-        return box_mesh(comm, m.box_length, m.box_height, self.cfg.geometry.mesh_size)
+        return box_mesh(comm, m.box_length, m.box_height, cell_sizes(self.cfg)[0])
 
-    def start(self, comm) -> TwoPhaseDiscretization:
-        """The box with c of the column (or of the trapezoid on its layer), at rest."""
-        disc = TwoPhaseDiscretization(self._box(comm), self.cfg)
+    def _initial(self, tagged) -> TwoPhaseDiscretization:
+        """c of the column (or of the trapezoid on its layer) on ``tagged``, at rest."""
+        disc = TwoPhaseDiscretization(tagged, self.cfg)
         g = self.cfg.geometry
         if disc.layer:
             disc.set_erodible()
@@ -256,8 +306,24 @@ class TwoPhaseFactory:
             disc.set_column(g.base_length, g.height)
         return disc
 
-    def rebuild(self, tagged):
-        raise NotImplementedError("a fixed box is never rebuilt")
+    def start(self, comm) -> TwoPhaseDiscretization:
+        """The box with the initial c (exact overlaps). Adaptive: the uniform box of
+        ``max_cell`` refined twice around its granular cells (the second from the first's
+        finer cells), the exact overlaps set anew on each."""
+        if not is_adaptive(self.cfg):
+            return self._initial(self._box(comm))
+        m = self.cfg.model
+        disc = self._initial(box_mesh(comm, m.box_length, m.box_height, cell_sizes(self.cfg)[1]))
+        for _ in range(2):
+            tagged = self._domain.mesh_for(comm, disc.fraction)
+            disc.destroy()
+            disc = self._initial(tagged)
+        return disc
+
+    def rebuild(self, tagged) -> TwoPhaseDiscretization:
+        """A discretization on a new mesh of the box (the adaptive remesh); the loop transfers
+        the state (``flow.TwoPhaseFlow.transfer``)."""
+        return TwoPhaseDiscretization(tagged, self.cfg)
 
     def save_checkpoint(self, path, disc: TwoPhaseDiscretization, state: dict) -> None:
         """The mesh, uⁿ, pⁿ, cⁿ and the loop state (collective; rank 0 writes)."""
@@ -265,7 +331,8 @@ class TwoPhaseFactory:
 
     def load_checkpoint(self, path, comm) -> tuple[TwoPhaseDiscretization, dict]:
         """The box of the config with the checkpoint's fields."""
-        _, fields, state = load_model_checkpoint(path, comm)
-        disc = TwoPhaseDiscretization(self._box(comm), self.cfg)
+        tagged, fields, state = load_model_checkpoint(path, comm)
+        # the adaptive mesh is the checkpoint's own; the uniform box that of the config
+        disc = TwoPhaseDiscretization(tagged if is_adaptive(self.cfg) else self._box(comm), self.cfg)
         disc.flow.transfer(fields)
         return disc, state

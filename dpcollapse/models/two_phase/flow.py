@@ -134,13 +134,15 @@ class TwoPhaseFlow(RegularizedFlow):
         return fields
 
     def transfer(self, fields: dict) -> float:
-        """The state of ``snapshot`` fields; c and the tracers evaluated at the cell midpoints."""
+        """The state of ``snapshot`` fields: u, p interpolated (``RegularizedFlow.transfer``);
+        c and the tracers by the exact conservative remap of their cell values
+        (``fraction.VolumeFraction.remap_from``: ∫ c kept to round-off)."""
         names = {fraction.c.name for fraction in self._fractions()}
         outside = super().transfer({k: v for k, v in fields.items() if k not in names})
-        x = self.fraction.S0.tabulate_dof_coordinates()[:, :2]
         for fraction in self._fractions():
-            if fraction.c.name in fields:
-                fraction.c.x.array[:] = fields[fraction.c.name].evaluate(x)[:, 0]
+            field = fields.get(fraction.c.name)
+            if field is not None:
+                fraction.remap_from(field.vertices, field.values[:, 0, 0])
         return outside
 
     def destroy(self) -> None:

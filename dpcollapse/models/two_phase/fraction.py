@@ -23,6 +23,7 @@ from petsc4py import PETSc
 
 from dpcollapse import compat
 from dpcollapse.forms.two_phase import compression_flux, fraction_flux, outflow_rate
+from dpcollapse.models.two_phase.remap import remap
 
 
 def owned_triangles(mesh) -> np.ndarray:
@@ -71,6 +72,25 @@ class VolumeFraction:
     def set_values(self, owned_values: np.ndarray) -> None:
         """cⁿ of the owned cells (in dof order); ghosts updated."""
         self.c.x.array[:self._n] = owned_values
+        self.c.x.scatter_forward()
+
+    def owned_values(self) -> np.ndarray:
+        """cⁿ of the owned cells in the order of ``owned_triangles``."""
+        n = compat.num_owned_cells(self.mesh)
+        return self.c.x.array[compat.cell_dofs(self.S0)[:n, 0]]
+
+    def gathered(self) -> tuple[np.ndarray, np.ndarray]:
+        """(triangles (N, 3, 2), cⁿ (N,)) of the owned cells of every rank, on every rank."""
+        parts = self.comm.allgather((owned_triangles(self.mesh), self.owned_values()))
+        return (np.concatenate([t for t, _ in parts]), np.concatenate([v for _, v in parts]))
+
+    def remap_from(self, triangles: np.ndarray, values: np.ndarray) -> None:
+        """cⁿ = the exact conservative remap (``remap``) of the cellwise ``values`` on the
+        ``triangles`` of another mesh of the same region (all of it, on every rank) onto the
+        owned cells; ghosts updated."""
+        n = compat.num_owned_cells(self.mesh)
+        self.c.x.array[compat.cell_dofs(self.S0)[:n, 0]] = remap(triangles, values,
+                                                                 owned_triangles(self.mesh))
         self.c.x.scatter_forward()
 
     def _assemble(self, form) -> np.ndarray:

@@ -1,0 +1,173 @@
+"""The interface-adaptive mesh of the two-phase box (``model.min_cell`` < ``model.max_cell``):
+fine cells in the granular phase and a band around it, coarse cells in the light fluid far
+from it, graded in between; rebuilt as the granular phase moves.
+
+The size field: with d(x) the distance from x to the nearest centroid of a granular cell
+(c > ``model.refine_fraction``) of the current mesh, b = ``model.refine_band`` × h_min the
+band and g = ``model.refine_grading``::
+
+    h(x) = h_min                                  for d ≤ b
+    h(x) = min(h_max, h_min + g (d − b))          beyond
+
+gmsh meshes the box [0, L] × [0, H] (Frontal-Delaunay) with h as its background field, read
+from a structured background grid of spacing min(h_max, 2 h_min) (a list-based post-processing
+view, the ``PostView`` field). The sides are tagged as the uniform box (``adapter.box_mesh``).
+
+``AdaptiveBox`` is the domain the loop asks (``domain.base.Domain``): it never moves; it asks
+for a remesh when a granular cell is coarser than ``REFINED`` × h_min (the phase reached the
+graded zone: the band is b − the distance the phase moved since the last rebuild) or every
+``model.remesh_every`` steps (0: only then). The loop (``simulation._remesh``) carries u and p
+by interpolation and c (and c_L) by the exact conservative remap (``remap``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from mpi4py import MPI
+from scipy.spatial import cKDTree
+
+from dpcollapse import compat
+from dpcollapse.geometry.mesher import BED, DOMAIN, LEFT, RIGHT, SURFACE, TAG_NAMES, TaggedMesh, gmsh_session
+from dpcollapse.models.two_phase.fraction import owned_triangles
+from dpcollapse.models.two_phase.remap import triangle_areas
+
+#: a granular cell larger than this many h_min (equilateral side of its area) triggers a remesh
+REFINED = 1.5
+
+
+def equivalent_size(triangles: np.ndarray) -> np.ndarray:
+    """The side of the equilateral triangle of each triangle's area [m]."""
+    return np.sqrt(4.0 * triangle_areas(triangles) / math.sqrt(3.0))
+
+
+class SizeField:
+    """h(x) from the centroids of the granular cells (the module's formula)."""
+
+    def __init__(self, min_cell: float, max_cell: float, band: float, grading: float):
+        self.min_cell, self.max_cell, self.band, self.grading = min_cell, max_cell, band, grading
+
+    def __call__(self, points: np.ndarray, granular: np.ndarray) -> np.ndarray:
+        """h at ``points`` (n, 2) for granular cell centroids ``granular`` (m, 2)."""
+        if len(granular) == 0:
+            return np.full(len(points), self.max_cell)
+        d, _ = cKDTree(granular).query(points)
+        return np.minimum(self.max_cell,
+                          self.min_cell + self.grading * np.maximum(d - self.band, 0.0))
+
+
+def background_grid(length: float, height: float, spacing: float) -> np.ndarray:
+    """Structured triangles (n, 3, 2) of [0, length] × [0, height] of about ``spacing``."""
+    nx, ny = max(1, round(length / spacing)), max(1, round(height / spacing))
+    x, y = np.meshgrid(np.linspace(0, length, nx + 1), np.linspace(0, height, ny + 1))
+    p = np.stack([x, y], axis=-1)
+    a, b, c, d = p[:-1, :-1], p[:-1, 1:], p[1:, 1:], p[1:, :-1]
+    return np.concatenate([np.stack([a, b, c], axis=-2).reshape(-1, 3, 2),
+                           np.stack([a, c, d], axis=-2).reshape(-1, 3, 2)])
+
+
+def _build_box_model(gmsh, length: float, height: float, grid: np.ndarray, sizes: np.ndarray,
+                     max_cell: float) -> None:
+    """The box in gmsh with its sides' physical tags and the background size view."""
+    gmsh.model.add("box")
+    geo = gmsh.model.geo
+    corners = [geo.addPoint(x, y, 0.0, max_cell)
+               for x, y in ((0, 0), (length, 0), (length, height), (0, height))]
+    lines = [geo.addLine(corners[i], corners[(i + 1) % 4]) for i in range(4)]
+    surface = geo.addPlaneSurface([geo.addCurveLoop(lines)])
+    geo.synchronize()
+    for line, tag in zip(lines, (BED, RIGHT, SURFACE, LEFT)):
+        gmsh.model.addPhysicalGroup(1, [line], tag)
+        gmsh.model.setPhysicalName(1, tag, TAG_NAMES[tag])
+    gmsh.model.addPhysicalGroup(2, [surface], DOMAIN)
+    view = gmsh.view.add("size")
+    n = len(grid)
+    # "ST": per triangle x1 x2 x3 y1 y2 y3 z1 z2 z3 v1 v2 v3
+    data = np.concatenate([grid[:, :, 0], grid[:, :, 1], np.zeros((n, 3)), sizes], axis=1)
+    gmsh.view.addListData(view, "ST", n, data.ravel().tolist())
+    field = gmsh.model.mesh.field.add("PostView")
+    gmsh.model.mesh.field.setNumber(field, "ViewTag", view)
+    gmsh.model.mesh.field.setAsBackgroundMesh(field)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    gmsh.option.setNumber("Mesh.Algorithm", 6)
+    gmsh.model.mesh.generate(2)
+
+
+def adaptive_box(comm, length: float, height: float, size: SizeField,
+                 granular: np.ndarray) -> TaggedMesh:
+    """The box meshed by gmsh on rank 0 with the size field ``size`` of the granular cell
+    centroids ``granular`` (every rank holds them), distributed over ``comm``."""
+    if comm.rank == 0:
+        spacing = min(size.max_cell, 2.0 * size.min_cell)
+        grid = background_grid(length, height, spacing)
+        sizes = size(grid.reshape(-1, 2), granular).reshape(-1, 3)
+        with gmsh_session() as gmsh:
+            _build_box_model(gmsh, length, height, grid, sizes, size.max_cell)
+            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
+    else:
+        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
+    mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
+    return TaggedMesh(mesh, facet_tags, cell_tags)
+
+
+def granular_centroids(fraction, threshold: float) -> np.ndarray:
+    """The centroids of the cells with c > ``threshold`` of every rank, on every rank."""
+    tri = owned_triangles(fraction.mesh)
+    own = tri[fraction.owned_values() > threshold].mean(axis=1)
+    return np.concatenate(fraction.comm.allgather(own)).reshape(-1, 2)
+
+
+class AdaptiveBox:
+    """The fixed box whose mesh follows the granular phase (``domain.base.Domain``)."""
+
+    moving = False
+
+    def __init__(self, length: float, height: float, size: SizeField, threshold: float,
+                 every: int):
+        self.length, self.height, self.size = length, height, size
+        self.threshold, self.every = threshold, every
+        self.solves = 0
+        self._centroids = None
+
+    def mesh_for(self, comm, fraction) -> TaggedMesh:
+        """A new mesh refined around the granular cells of ``fraction`` (c > threshold)."""
+        return adaptive_box(comm, self.length, self.height, self.size,
+                            granular_centroids(fraction, self.threshold))
+
+    def limit_step(self, disc, dt: float) -> float:
+        return math.inf
+
+    def recompute(self, disc) -> None:
+        pass
+
+    def move(self, disc, dt: float) -> tuple[None, int]:
+        return None, 0
+
+    def undo(self, disc, token) -> None:
+        pass
+
+    def needs_remesh(self, disc, state) -> str | None:
+        """A granular cell coarser than REFINED h_min, or ``every`` steps since the last."""
+        fraction = disc.fraction
+        tri = owned_triangles(fraction.mesh)
+        granular = fraction.owned_values() > self.threshold
+        coarse = bool(np.any(equivalent_size(tri[granular]) > REFINED * self.size.min_cell))
+        coarse = fraction.comm.allreduce(coarse, op=MPI.LOR)
+        since = state.step - max(state.last_remesh_step, 0)
+        reason = None
+        if coarse and state.step > state.last_remesh_step:
+            reason = "granular phase left the fine band"
+        elif self.every and since >= self.every:
+            reason = f"{self.every} steps"
+        if reason:
+            self._centroids = granular_centroids(fraction, self.threshold)
+        return reason
+
+    def remesh(self, tagged, area0: float):
+        """The box refined around the granular cells found by ``needs_remesh``:
+        (tagged mesh, 4 corners)."""
+        comm = tagged.mesh.comm
+        return adaptive_box(comm, self.length, self.height, self.size, self._centroids), 4

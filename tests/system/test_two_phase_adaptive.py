@@ -1,0 +1,99 @@
+"""The two-phase model on the interface-adaptive mesh through the time loop: the run remeshes
+as the front moves, each remesh keeps ∫ c to round-off, the front and heights are those of the
+uniform run of the same fine cells within one cell, ParaView opens the series whose mesh
+changes, 2 MPI ranks agree with one, and the Courant-limited step follows the speed."""
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from dpcollapse.io.diagnostics import read_diagnostics
+from dpcollapse.loop import Events
+from dpcollapse.models.two_phase.adaptive import REFINED
+from tests.helpers import paraview_summaries, simulation
+
+CONFIG = "column_eulerian_a0.5.yaml"
+FINE = 0.01
+#: a = 0.5 on the 0.3 m × 0.06 m box to t = 0.12 s (the front at its fastest), Δt = 2 ms
+SMALL = ["model.box_height=0.06", "time.end_time=0.12", "time.dt=2e-3", "time.output_every=20",
+         "time.checkpoint_every=1000", f"model.min_cell={FINE}"]
+ADAPTIVE = SMALL + ["model.max_cell=0.04"]
+
+
+def _remesh_log(events: Events) -> list:
+    infos = []
+    events.subscribe("remesh", lambda sim, info: infos.append(info))
+    return infos
+
+
+def test_adaptive_run_matches_the_uniform_run_within_a_cell(tmp_path):
+    events = Events()
+    remeshes = _remesh_log(events)
+    adaptive = simulation(CONFIG, ADAPTIVE, tmp_path / "adaptive", comm=MPI.COMM_SELF,
+                          events=events).run()
+    uniform = simulation(CONFIG, SMALL + [f"model.max_cell={FINE}"], tmp_path / "uniform",
+                         comm=MPI.COMM_SELF).run()
+    assert adaptive["remeshes"] >= 1 and uniform["remeshes"] == 0
+    assert len(remeshes) == adaptive["remeshes"]
+    for info in remeshes:
+        assert info["area_after"] == pytest.approx(info["area_before"], rel=1e-12)
+        assert info["cells_after"] < 30 * 6 * 2      # fewer than the uniform box
+    for key in ("front", "thick_front", "max_height"):
+        assert abs(adaptive[key] - uniform[key]) <= FINE, key
+    assert adaptive["front"] > 0.12
+    assert abs(adaptive["area_drift"]) < 1e-5 and adaptive["fraction_max"] < 1.05
+    # the series opens in ParaView, its mesh changing with the remeshes
+    summary, = paraview_summaries(tmp_path / "adaptive" / "solution.xdmf")
+    cells = {snap["num_cells"] for snap in summary["snapshots"]}
+    assert len(cells) >= 2 and "volume_fraction" in summary["cell_arrays"]
+    assert len(summary["times"]) == 4
+
+
+@pytest.mark.mpi
+def test_adaptive_two_ranks_agree_with_one(shared_tmp, comm, tmp_path):
+    """Remesh on rank 0 (gmsh), distribution by DOLFINx, c remapped by every rank from the
+    gathered old cells: the same remeshes, steps and fronts as the serial run (to 0.06 s,
+    remeshed every 10 steps)."""
+    events = Events()
+    remeshes = _remesh_log(events)
+    over = ADAPTIVE + ["time.end_time=0.06", "model.remesh_every=10"]
+    parallel = simulation(CONFIG, over, shared_tmp / "par", comm=comm, events=events).run()
+    serial = simulation(CONFIG, over, tmp_path / f"ser{comm.rank}", comm=MPI.COMM_SELF).run()
+    assert parallel["remeshes"] == serial["remeshes"] >= 1
+    assert parallel["steps"] == serial["steps"]
+    for info in remeshes:
+        assert info["area_after"] == pytest.approx(info["area_before"], rel=1e-12)
+    for key in ("front", "thick_front", "max_height"):
+        assert parallel[key] == pytest.approx(serial[key], abs=1e-9), key
+    assert parallel["area"] == pytest.approx(serial["area"], rel=1e-7)
+
+
+def test_courant_limited_step(tmp_path):
+    """model.adaptive_dt with time.dt = 10 ms: the first step (at rest) is 10 ms, then the
+    step shrinks as the column accelerates, Δt max|u_granular| ≤ Co h_min, and the run ends
+    at end_time in fewer steps than Δt = 2 ms would take."""
+    over = ADAPTIVE + ["model.adaptive_dt=true", "model.step_courant=0.5", "time.dt=1e-2"]
+    summary = simulation(CONFIG, over, tmp_path, comm=MPI.COMM_SELF).run()
+    assert summary["status"] == "end_time"
+    columns = read_diagnostics(tmp_path / "diagnostics.csv")
+    dt, speed = np.asarray(columns["dt"]), np.asarray(columns["max_speed"])
+    assert dt[0] == pytest.approx(1e-2) and dt[1:].min() < 5e-3
+    assert summary["steps"] < 60
+    # the limit is taken from uⁿ (the speed the step before wrote); the fastest granular
+    # cell is at most REFINED h_min (else the mesh is rebuilt), so Δt ≤ Co REFINED h_min/|u|
+    courant = dt[1:] * speed[:-1] / (REFINED * FINE)
+    assert courant.max() <= 0.5 + 1e-9 and courant.max() > 0.2
+
+
+def test_resume_on_the_adaptive_mesh(tmp_path):
+    """A run stopped after a remesh and resumed (from the checkpoint's own mesh) ends where the
+    uninterrupted one does."""
+    over = ADAPTIVE + ["model.remesh_every=10", "time.checkpoint_every=10"]
+    whole = simulation(CONFIG, over + ["time.end_time=0.06"], tmp_path / "a", comm=MPI.COMM_SELF).run()
+    simulation(CONFIG, over + ["time.end_time=0.04"], tmp_path / "b", comm=MPI.COMM_SELF).run()
+    resumed = simulation(CONFIG, over + ["time.end_time=0.06"], tmp_path / "b", comm=MPI.COMM_SELF,
+                         resume=True).run()
+    assert resumed["steps"] == whole["steps"] and resumed["remeshes"] == whole["remeshes"] >= 2
+    for key in ("front", "max_height", "area"):
+        assert resumed[key] == pytest.approx(whole[key], rel=1e-9), key
+    assert resumed["kinetic_energy"] == pytest.approx(whole["kinetic_energy"], rel=1e-6)

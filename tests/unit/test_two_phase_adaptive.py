@@ -1,0 +1,65 @@
+"""The interface-adaptive mesh of the two-phase box (``models.two_phase.adaptive``): the size
+field by hand, the gmsh box (sides tagged, fine cells over the granular region, coarse ones far
+away), the uniform box kept for absent keys, and the config's one-line errors."""
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from dpcollapse import compat
+from dpcollapse.config import load_config
+from dpcollapse.errors import ConfigError
+from dpcollapse.geometry.mesher import BED, LEFT, RIGHT, SURFACE
+from dpcollapse.models.two_phase.adapter import TwoPhaseFactory, is_adaptive
+from dpcollapse.models.two_phase.adaptive import SizeField, adaptive_box, equivalent_size
+from dpcollapse.models.two_phase.fraction import owned_triangles
+from tests.helpers import ROOT
+
+CONFIG = ROOT / "configs" / "column_eulerian_a0.5.yaml"
+
+
+def test_size_field_by_hand():
+    """h_min inside the band b, h_min + g (d − b) beyond, h_max far away and with no grains."""
+    size = SizeField(0.01, 0.05, band=0.04, grading=0.5)
+    points = np.array([[0.0, 0.03], [0.0, 0.08], [0.0, 1.0]])
+    np.testing.assert_allclose(size(points, np.zeros((1, 2))), [0.01, 0.03, 0.05])
+    np.testing.assert_allclose(size(points, np.zeros((0, 2))), [0.05] * 3)
+
+
+@pytest.mark.mpi
+def test_adaptive_box_is_fine_over_the_grains_and_coarse_far_away():
+    comm = MPI.COMM_WORLD
+    size = SizeField(0.01, 0.05, band=0.02, grading=0.3)
+    x, y = np.meshgrid(np.linspace(0.005, 0.095, 10), np.linspace(0.005, 0.045, 5))
+    tagged = adaptive_box(comm, 0.4, 0.2, size, np.c_[x.ravel(), y.ravel()])
+    tri = owned_triangles(tagged.mesh)
+    h, mid = equivalent_size(tri), tri.mean(axis=1)
+    grains = (mid[:, 0] < 0.1) & (mid[:, 1] < 0.05)
+    far = mid[:, 0] > 0.3
+    assert comm.allreduce(float(h[grains].max()) if grains.any() else 0.0, op=MPI.MAX) < 1.5 * 0.01
+    assert comm.allreduce(float(h[far].min()) if far.any() else np.inf, op=MPI.MIN) > 2 * 0.01
+    area = comm.allreduce(float(np.sum(0.25 * np.sqrt(3) * h**2)), op=MPI.SUM)
+    assert area == pytest.approx(0.4 * 0.2, rel=1e-12)
+    tags = set(comm.allreduce(set(np.unique(tagged.facet_tags.values).tolist()), op=MPI.BOR))
+    assert tags == {BED, LEFT, RIGHT, SURFACE}
+
+
+def test_absent_keys_and_equal_sizes_give_the_uniform_box():
+    """No model.min_cell: today's structured box of geometry.mesh_size; min_cell = max_cell:
+    the same box (the same cells); only min_cell < max_cell is adaptive."""
+    comm = MPI.COMM_SELF
+    today = TwoPhaseFactory(load_config(CONFIG, ["geometry.mesh_size=0.02"]))
+    same = TwoPhaseFactory(load_config(CONFIG, ["geometry.mesh_size=0.04", "model.min_cell=0.02",
+                                                "model.max_cell=0.02"]))
+    assert not is_adaptive(today.cfg) and not is_adaptive(same.cfg)
+    a, b = today.start(comm), same.start(comm)
+    np.testing.assert_array_equal(owned_triangles(a.mesh), owned_triangles(b.mesh))
+    np.testing.assert_array_equal(a.fraction.c.x.array, b.fraction.c.x.array)
+    assert compat.num_owned_cells(a.mesh) == 15 * 5 * 2
+    a.destroy(), b.destroy()
+    assert is_adaptive(load_config(CONFIG, ["model.min_cell=0.002"]))
+
+
+def test_min_cell_above_max_cell_is_one_line():
+    with pytest.raises(ConfigError, match="model.min_cell = 0.03: must be <= model.max_cell"):
+        load_config(CONFIG, ["model.min_cell=0.03", "model.max_cell=0.02"])
