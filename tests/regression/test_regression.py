@@ -26,10 +26,20 @@ from tests.regression.record import CASES, KEYS, run_case
 REFERENCE = json.loads((Path(__file__).parent / "reference.json").read_text())["cases"]
 
 
+#: A run at rest stopped because max |u| stayed below ``time.rest_speed`` (1e-3 m/s): the
+#: largest speed left is anything below it (6.6e-7 … 4.4e-5 m/s in the spread, 4.2e-4 m/s
+#: under Prescott in CI), so it is compared with that bound, not with a stored value.
+REST_SPEED = 1e-3
+
+
 def _compare(got: dict, name: str) -> None:
     ref = REFERENCE[name]
     assert got["status"] == ref["status"]
-    off = {key: (got[key], ref["value"][key], ref["tolerance"][key]) for key in KEYS
+    keys = KEYS
+    if ref["status"] == "at_rest":
+        assert got["max_speed"] < REST_SPEED
+        keys = tuple(k for k in KEYS if k != "max_speed")
+    off = {key: (got[key], ref["value"][key], ref["tolerance"][key]) for key in keys
            if not abs(got[key] - ref["value"][key]) <= ref["tolerance"][key]}
     assert not off, f"{name}: (value, stored centre, tolerance) outside the measured band: {off}"
 
