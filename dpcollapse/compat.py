@@ -296,13 +296,20 @@ def create_rectangle(comm: MPI.Comm, lower, upper, n) -> dmesh.Mesh:
                                   ghost_mode=dmesh.GhostMode.shared_facet)
 
 
-def gmsh_model_to_mesh(model, comm: MPI.Comm, rank: int = 0, gdim: int = 2):
-    """(mesh, cell_tags, facet_tags) from a gmsh model that lives on ``rank``."""
+def gmsh_model_to_mesh(model, comm: MPI.Comm, rank: int = 0, gdim: int = 2,
+                       shared_facets: bool = False):
+    """(mesh, cell_tags, facet_tags) from a gmsh model that lives on ``rank``;
+    ``shared_facets``: ghosted by shared facets, as interior-facet integrals (dS) across
+    ranks need (DOLFINx ≥ 0.9 refuses them otherwise)."""
     if _V010:
         from dolfinx.io import gmsh as _gmsh_io
     else:
         from dolfinx.io import gmshio as _gmsh_io
-    result = _gmsh_io.model_to_mesh(model, comm, rank, gdim=gdim)
+    kwargs = {}
+    if shared_facets and _BASIX_ELEMENTS:
+        # 0.5's model_to_mesh always ghosts by shared facets and takes no partitioner
+        kwargs["partitioner"] = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet)
+    result = _gmsh_io.model_to_mesh(model, comm, rank, gdim=gdim, **kwargs)
     if hasattr(result, "mesh"):
         return result.mesh, result.cell_tags, result.facet_tags
     return result

@@ -12,6 +12,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
+from dpcollapse import compat
 from dpcollapse.cli import main
 from dpcollapse.io.checkpoint import choose_checkpoint, previous_path
 from dpcollapse.io.diagnostics import read_diagnostics
@@ -160,6 +161,16 @@ def test_full_disk_is_an_io_failure_with_whole_files(small_disk):
     assert len(list((out / "fields").glob("step_*.h5"))) == len(list(root.iter("Time")))
 
 
+#: DOLFINx >= 0.9 (nanobind): a SIGTERM whose KeyboardInterrupt is raised inside a Python
+#: callback of a C++ call during set-up can end in std::terminate ("terminate called after
+#: throwing an instance of 'nanobind::python_error'") instead of exit 130. Seen once in the
+#: Debian 13 chroot (0.9) under pytest-xdist on 2026-12-03; open in issue 30, not yet fixed.
+_NANOBIND_SIGTERM = pytest.mark.xfail(
+    tuple(compat.DOLFINX_VERSION[:2]) >= (0, 9), strict=False,
+    reason="SIGTERM inside a nanobind callback can std::terminate (issue 30, open)")
+
+
+@_NANOBIND_SIGTERM
 def test_sigterm_during_start_up_is_an_interrupt(tmp_path):
     """SIGTERM while the run is being set up (mesh, forms, JIT): exit 130, one line."""
     import signal

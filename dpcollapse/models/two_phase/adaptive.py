@@ -106,9 +106,9 @@ def adaptive_box(comm, length: float, height: float, size: SizeField,
         sizes = size(grid.reshape(-1, 2), granular).reshape(-1, 3)
         with gmsh_session() as gmsh:
             _build_box_model(gmsh, length, height, grid, sizes, size.max_cell)
-            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
+            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2, shared_facets=True)
     else:
-        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
+        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2, shared_facets=True)
     mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
     return TaggedMesh(mesh, facet_tags, cell_tags)
 
