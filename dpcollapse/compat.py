@@ -308,7 +308,11 @@ def gmsh_model_to_mesh(model, comm: MPI.Comm, rank: int = 0, gdim: int = 2,
     kwargs = {}
     if shared_facets and _BASIX_ELEMENTS:
         # 0.5's model_to_mesh always ghosts by shared facets and takes no partitioner
-        kwargs["partitioner"] = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet)
+        try:
+            part = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet)
+        except TypeError:  # 0.11 also asks how many cells a facet joins (2 in a 2D mesh)
+            part = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet, 2)
+        kwargs["partitioner"] = part
     result = _gmsh_io.model_to_mesh(model, comm, rank, gdim=gdim, **kwargs)
     if hasattr(result, "mesh"):
         return result.mesh, result.cell_tags, result.facet_tags
