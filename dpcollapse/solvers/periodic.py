@@ -119,6 +119,22 @@ def check_images(mesh, facets, translation: np.ndarray, gdim: int) -> None:
             "side (e.g. (-L, 0) for slave x = L, master x = 0)")
 
 
+def periodic_sides(V, facet_tags, slave_tag: int, translation: Sequence[float], subspaces=None):
+    """What both periodic constraints start from: the translation as a 3-vector (nonzero),
+    the slave side's facets (checked to map onto the mesh under it), and the scalar leaf
+    subspaces to constrain (default every leaf of V)."""
+    mesh = V.mesh
+    shift = np.zeros(3)
+    shift[:len(translation)] = np.asarray(translation, dtype=np.float64)
+    if not np.any(shift):
+        raise ValueError("translation must be nonzero")
+    slave_facets = facet_tags.indices[facet_tags.values == slave_tag].astype(np.int32)
+    check_images(mesh, slave_facets, shift, mesh.geometry.dim)
+    leaves = leaf_subspaces(V) if subspaces is None else \
+        [leaf for S in subspaces for leaf in leaf_subspaces(S)]
+    return shift, slave_facets, leaves
+
+
 class PeriodicLinearSystem:
     """A matrix and right-hand side with a periodic constraint, reassembled in place."""
 
@@ -140,20 +156,10 @@ class PeriodicLinearSystem:
         self.V = V
         mesh = V.mesh
         self.comm = mesh.comm
-        gdim = mesh.geometry.dim
-        shift = np.zeros(3)
-        shift[:len(translation)] = np.asarray(translation, dtype=np.float64)
-        if not np.any(shift):
-            raise ValueError("translation must be nonzero")
+        shift, slave_facets, leaves = periodic_sides(V, facet_tags, slave_tag, translation,
+                                                     subspaces)
         self.translation = shift
         fdim = mesh.topology.dim - 1
-        slave_facets = facet_tags.indices[facet_tags.values == slave_tag].astype(np.int32)
-        check_images(mesh, slave_facets, shift, gdim)
-
-        if subspaces is None:
-            leaves = leaf_subspaces(V)
-        else:
-            leaves = [leaf for S in subspaces for leaf in leaf_subspaces(S)]
 
         def relation(x):
             return x + shift[:, None]

@@ -38,7 +38,7 @@ from scipy.spatial import cKDTree
 
 from dpcollapse import compat
 from dpcollapse.solvers.assembly import LinearSystem
-from dpcollapse.solvers.periodic import check_images, leaf_subspaces
+from dpcollapse.solvers.periodic import periodic_sides
 
 
 def _global_indices(V, local: np.ndarray) -> np.ndarray:
@@ -62,16 +62,10 @@ class PeriodicPetscSystem:
         mesh = V.mesh
         self.comm = mesh.comm
         gdim = mesh.geometry.dim
-        shift = np.zeros(3)
-        shift[:len(translation)] = np.asarray(translation, dtype=np.float64)
-        if not np.any(shift):
-            raise ValueError("translation must be nonzero")
+        shift, slave_facets, leaves = periodic_sides(V, facet_tags, slave_tag, translation,
+                                                     subspaces)
         self.translation = shift
         fdim = mesh.topology.dim - 1
-        slave_facets = facet_tags.indices[facet_tags.values == slave_tag].astype(np.int32)
-        check_images(mesh, slave_facets, shift, gdim)
-        leaves = leaf_subspaces(V) if subspaces is None else \
-            [leaf for S in subspaces for leaf in leaf_subspaces(S)]
 
         im, bs = V.dofmap.index_map, V.dofmap.index_map_bs
         self._owned = im.size_local * bs
