@@ -15,6 +15,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import logging  # noqa: E402
 import math  # noqa: E402
 import sys  # noqa: E402
+import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any, Sequence  # noqa: E402
 
@@ -622,13 +623,19 @@ def entry() -> None:
 def _exit_without_finalizers(code: int) -> None:
     """Leave now, without the HDF5 and MPI terminators: after a failed HDF5 write, HDF5
     1.14 asserts in them (exit 134 instead of the error's own status). Under mpirun the job
-    is aborted with the status, which mpirun passes on."""
+    is aborted with the status, which mpirun passes on: by rank 0, once every rank has
+    got here (rank 0 has then written its one line); a rank that aborted first could kill
+    rank 0 before its line is out (MPICH's Hydra does)."""
     sys.stdout.flush()
     sys.stderr.flush()
-    world = sys.modules.get("mpi4py.MPI")
-    if world is not None and world.Is_initialized() and not world.Is_finalized() \
-            and world.COMM_WORLD.size > 1:
-        world.COMM_WORLD.Abort(code)
+    MPI = sys.modules.get("mpi4py.MPI")
+    if MPI is not None and MPI.Is_initialized() and not MPI.Is_finalized() \
+            and MPI.COMM_WORLD.size > 1:
+        world = MPI.COMM_WORLD
+        parallel.all_arrive(world, parallel.grace_seconds())
+        if world.rank != 0:
+            time.sleep(parallel.grace_seconds())   # rank 0's abort ends this rank first
+        world.Abort(code)
     os._exit(code)
 
 
