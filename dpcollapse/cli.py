@@ -584,12 +584,25 @@ def main(argv: list[str] | None = None) -> int:
 _signalled = False
 
 
+def _importing(frame) -> bool:
+    """Whether ``frame`` runs inside an import (any frame of its chain is the import
+    machinery's): also the Python code that a C extension's initialization calls."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
+
+
 def _interrupt(signum, frame):
     global _signalled
     _signalled = True
-    if frame is not None and frame.f_code.co_filename.startswith("<frozen importlib"):
-        # inside the import machinery's module locks an exception here is printed as a
-        # traceback: deliver the signal again a moment later, outside them
+    if _importing(frame):
+        # Not during an import: inside the import machinery's module locks an exception is
+        # printed as a traceback, and inside a nanobind module's initialization (DOLFINx
+        # >= 0.9 builds its enums by calling Python's enum module) it becomes a C++
+        # nanobind::python_error that ends in std::terminate (SIGABRT). Deliver the signal
+        # again a moment later, until it arrives outside any import.
         import signal
         import threading
 

@@ -21,7 +21,7 @@ import pytest
 
 
 from tests.helpers import OVERSUBSCRIBE, ROOT, clean_env
-from tests.system.test_faults import _NANOBIND_SIGTERM, small_disk  # noqa: F401  (a fixture)
+from tests.system.test_faults import small_disk  # noqa: F401  (a fixture)
 
 RIGID = str(ROOT / "configs" / "rigid.yaml")
 TINY = ["--set", "geometry.mesh_size=0.04", "--set", "time.output_every=1",
@@ -119,7 +119,6 @@ def test_a_full_disk_under_mpirun_is_an_io_failure(small_disk):  # noqa: F811
     assert len(lines) == 1 and "I/O failure" in lines[0], proc.stderr[-3000:]
 
 
-@_NANOBIND_SIGTERM
 @pytest.mark.parametrize("delay", [0.25, 1.0])
 def test_sigterm_during_start_up_under_mpirun_ends_without_a_traceback(tmp_path, delay):
     """SIGTERM to both ranks while the run is being set up (at 0.25 s it used to hit an
