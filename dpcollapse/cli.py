@@ -198,6 +198,12 @@ def summary(cfg: Config, source: Path | str | None = None) -> str:
         cells = box_cells(cfg.model.box_length, cfg.model.box_height, g.mesh_size)
         lines.insert(2, f"  two-phase box {cfg.model.box_length:g} x {cfg.model.box_height:g} m: "
                         f"about {cells:.3g} cells (about {cells * MEMORY_PER_CELL / 1e6:.3g} MB)")
+    if cfg.model.name == "stokes":
+        from dpcollapse.config import MEMORY_PER_CELL, mesh_cells
+
+        cells = mesh_cells(g.area, g.mesh_size)
+        lines.insert(2, f"  mesh: about {cells:.3g} cells at {g.mesh_size:g} m "
+                        f"(about {cells * MEMORY_PER_CELL / 1e6:.3g} MB)")
     if cfg.numerics.method == "augmented_lagrangian":
         from dpcollapse.models.stokes.augmented import augmented_settings
 

@@ -564,6 +564,12 @@ def box_cells(length: float, height: float, mesh_size: float) -> float:
     return 2.0 * length * height / mesh_size ** 2
 
 
+def mesh_cells(area: float, mesh_size: float) -> float:
+    """Estimated triangles of a region of ``area`` meshed by gmsh at ``mesh_size``: equilateral
+    triangles of side h, area sqrt(3)/4 h^2 each."""
+    return area / (math.sqrt(3.0) / 4.0 * mesh_size ** 2)
+
+
 class TwoPhaseModel(_Section):
     """The granular phase and a passive light fluid on a fixed box mesh (seed 003's Gerris and
     Basilisk method): a volume fraction c advected by the flow, mixture density and viscosity,
@@ -730,6 +736,8 @@ class Config(_Section):
             self._depth_averaged()
         if self.model.name == "two_phase":
             self._two_phase()
+        if self.model.name == "stokes":
+            self._moving_mesh()
         if self.geometry.shape == "layer" and self.numerics.ale:
             raise ConfigError("numerics.ale = true: a periodic layer has a fixed domain; "
                               "must be false with geometry.shape = layer")
@@ -747,6 +755,18 @@ class Config(_Section):
             raise ConfigError("numerics.linear_solver = 'iterative': not available on a periodic "
                               "layer (geometry.shape = layer); use mumps or superlu_dist")
         return self
+
+    def _moving_mesh(self) -> None:
+        """The mass's mesh must fit the cell limit (``geometry.mesh_size`` = 1e-5 m asked gmsh
+        for about 7e8 triangles)."""
+        g = self.geometry
+        cells = mesh_cells(g.area, g.mesh_size)
+        if cells > MAX_GRID_CELLS:
+            smallest = math.sqrt(g.area / (math.sqrt(3.0) / 4.0 * MAX_GRID_CELLS))
+            raise ConfigError(
+                f"geometry.mesh_size = {_fmt(g.mesh_size)}: about {cells:.3g} cells for the "
+                f"{g.area:.4g} m^2 of the mass (about {cells * MEMORY_PER_CELL / 1e9:.3g} GB), more "
+                f"than {MAX_GRID_CELLS}; must be >= {smallest:.3g} m")
 
     def _two_phase(self) -> None:
         """The fixed box must contain the column; the rest is refused (one line each)."""

@@ -5,6 +5,7 @@ check); numerics keys a model does not read refused; a key twice in a sweep file
 from __future__ import annotations
 
 import os
+import re
 import threading
 
 import pytest
@@ -58,6 +59,7 @@ def test_a_key_twice_in_a_sweep_file_is_refused(tmp_path, capsys):
     (COLUMN_2P, ["numerics.method=augmented_lagrangian"], "numerics.method"),
     (COLUMN_2P, ["numerics.nonlinear_solver=newton"], "numerics.nonlinear_solver"),
     (COLUMN_2P, ["model.box_length=1e6"], "model.box_length"),
+    (RIGID, ["geometry.mesh_size=1e-5"], "geometry.mesh_size"),
 ])
 def test_unphysical_or_unused_values_are_refused(capsys, config, overrides, key):
     args = [a for item in overrides for a in ("--set", item)]
@@ -65,6 +67,7 @@ def test_unphysical_or_unused_values_are_refused(capsys, config, overrides, key)
     assert key in _line(capsys)
 
 
-def test_check_prints_the_two_phase_memory_estimate(capsys):
-    assert main(["check", COLUMN_2P]) == 0
-    assert "cells (about" in capsys.readouterr().out
+@pytest.mark.parametrize("config", [COLUMN_2P, RIGID])
+def test_check_prints_the_memory_estimate(capsys, config):
+    assert main(["check", config]) == 0
+    assert re.search(r"about [0-9.e+]+ cells .*\(about [0-9.e+]+ MB\)", capsys.readouterr().out)
