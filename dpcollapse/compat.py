@@ -400,10 +400,9 @@ def entities_to_geometry(mesh, dim: int, entities: np.ndarray) -> np.ndarray:
 
 def mesh_with_facet_tags(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray,
                          edges: np.ndarray, edge_tags: np.ndarray):
-    """A distributed P1 triangle mesh and its facet tags from global arrays on rank 0
-    (empty arrays on other ranks); ``edges`` are pairs of node indices into ``x``."""
-    from dpcollapse.geometry.mesher import TaggedMesh
-
+    """A distributed P1 triangle mesh and its facet tags, ``(mesh, facet_tags)``, from
+    global arrays on rank 0 (empty arrays on other ranks); ``edges`` are pairs of node
+    indices into ``x``."""
     mesh = create_mesh(comm, cells, x)
     mesh.topology.create_connectivity(1, 2)
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
@@ -424,7 +423,7 @@ def mesh_with_facet_tags(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray,
         mesh.topology.create_connectivity(1, 0)
         ft = dmesh.meshtags_from_entities(mesh, 1, AdjacencyList_int32(entities),
                                           values.astype(np.int32))
-    return TaggedMesh(mesh, ft)
+    return mesh, ft
 
 
 # --------------------------------------------------------------------------- I/O

@@ -54,7 +54,7 @@ from dpcollapse.io.exports import CheckpointExport, FieldExport
 from dpcollapse.loop import Discretization as ModelDiscretization, Events, LoopState, ModelFactory
 from dpcollapse.models.registry import model_factory
 from dpcollapse.solvers.step_control import StepController
-from dpcollapse.discretization import (Discretization, flow_parameters, initial_velocity,  # noqa: F401
+from dpcollapse.models.stokes.discretization import (Discretization, flow_parameters, initial_velocity,  # noqa: F401
                                        picard_settings, rheology)
 
 log = logging.getLogger("dpcollapse")

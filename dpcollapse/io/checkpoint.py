@@ -206,7 +206,7 @@ def load_checkpoint(path: Path, comm) -> tuple[TaggedMesh, CellwiseField, Cellwi
     else:
         x, cells = np.zeros((0, 2)), np.zeros((0, 3), dtype=np.int64)
         edges, edge_tags = np.zeros((0, 2), dtype=np.int64), np.zeros(0, dtype=np.int32)
-    tagged = compat.mesh_with_facet_tags(comm, cells, x, edges, edge_tags)
+    tagged = TaggedMesh(*compat.mesh_with_facet_tags(comm, cells, x, edges, edge_tags))
     has_regions = comm.bcast("mesh_cell_tags" in data.files, root=0)
     if has_regions:
         regions = (x[cells], data["mesh_cell_tags"]) if comm.rank == 0 else None

@@ -2,10 +2,10 @@
 
 - ``model_factory(cfg)``: what the time loop drives (``loop.ModelFactory``) — the class
   whose ``model_name`` is ``model.name``, in a module under ``dpcollapse/models/`` (a new
-  model is a new package here) or in ``dpcollapse.discretization`` (the 2D model's, which
-  uses the mesh motion of ``ale/`` above this package); it provides ``from_config(cfg)``;
-- ``model_class(method)``: the 2D flow class whose ``method`` is ``numerics.method``; it
-  provides ``from_config(tagged, cfg, params)``."""
+  model is a new package here); it provides ``from_config(cfg)``;
+- ``model_class(method, nonlinear_solver)``: the 2D flow class whose ``method`` is
+  ``numerics.method`` and whose ``nonlinear_solver`` is ``numerics.nonlinear_solver`` (None:
+  the method's only one); it provides ``from_config(tagged, cfg, params)``."""
 
 from __future__ import annotations
 
@@ -24,34 +24,40 @@ def _package_modules() -> list[str]:
             if not info.ispkg and info.name.rsplit(".", 1)[-1] not in _SKIP]
 
 
-def _classes_by(attribute: str, modules) -> dict[str, type]:
-    """value of ``attribute`` (a str) -> the class defining it (with ``from_config``) in
-    ``modules``."""
-    found = {}
+def _classes_by(attribute: str, modules, every: bool = False) -> list[tuple[str, type]]:
+    """(value of ``attribute`` (a str), the class defining it with ``from_config``) for the
+    classes of ``modules``."""
+    found = []
     for name in modules:
         module = importlib.import_module(name)
         for obj in vars(module).values():
             key = getattr(obj, attribute, None)
             if (isinstance(obj, type) and isinstance(key, str) and hasattr(obj, "from_config")
                     and obj.__module__ == module.__name__):
-                found[key] = obj
+                found.append((key, obj))
     return found
 
 
 @functools.cache
+def flow_classes() -> dict[tuple[str, str | None], type]:
+    """(numerics.method, numerics.nonlinear_solver or None) -> the 2D flow class, from every
+    module of the package and its packages."""
+    found = {}
+    for method, cls in _classes_by("method", _package_modules(), every=True):
+        found[(method, getattr(cls, "nonlinear_solver", None))] = cls
+    return found
+
+
 def model_classes() -> dict[str, type]:
-    """numerics.method -> model class, from every module of the package and its packages."""
-    return _classes_by("method", _package_modules())
-
-
-#: Modules outside the package that hold a model factory (imported when asked for).
-FACTORY_MODULES = ("dpcollapse.discretization",)
+    """numerics.method -> the method's class with the default nonlinear solver (Picard, or
+    the method's only one)."""
+    return {method: model_class(method) for method, _ in flow_classes()}
 
 
 @functools.cache
 def model_factories() -> dict[str, type]:
     """model.name -> factory class (``model_name`` and ``from_config``)."""
-    return _classes_by("model_name", [*_package_modules(), *FACTORY_MODULES])
+    return dict(_classes_by("model_name", _package_modules()))
 
 
 def model_factory(cfg):
@@ -59,6 +65,7 @@ def model_factory(cfg):
     return model_factories()[cfg.model.name].from_config(cfg)
 
 
-def model_class(method: str) -> type:
-    """The model class of ``numerics.method``."""
-    return model_classes()[method]
+def model_class(method: str, nonlinear_solver: str = "picard") -> type:
+    """The 2D flow class of ``numerics.method`` solved by ``numerics.nonlinear_solver``."""
+    classes = flow_classes()
+    return classes.get((method, nonlinear_solver)) or classes[(method, None)]

@@ -38,7 +38,7 @@ from scipy.spatial import cKDTree
 
 from dpcollapse import compat
 from dpcollapse.solvers.assembly import LinearSystem
-from dpcollapse.solvers.periodic import periodic_sides
+from dpcollapse.solvers.periodic_sides import periodic_sides
 
 
 def _global_indices(V, local: np.ndarray) -> np.ndarray:

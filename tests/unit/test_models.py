@@ -6,7 +6,7 @@ import pytest
 from mpi4py import MPI
 
 from dpcollapse.config import load_config
-from dpcollapse.discretization import make_flow
+from dpcollapse.models.stokes.discretization import make_flow
 from dpcollapse.models.base import Model
 from dpcollapse.models.stokes.augmented import AugmentedLagrangianFlow
 from dpcollapse.models.stokes.regularized import RegularizedFlow

@@ -10,7 +10,7 @@ from dolfinx.fem import petsc as fem_petsc
 from mpi4py import MPI
 
 from dpcollapse.config import ConfigError, load_config
-from dpcollapse.discretization import make_flow
+from dpcollapse.models.stokes.discretization import make_flow
 from dpcollapse.models.stokes.newton import NewtonFlow, continuation, predicted_error, regularization_stages
 from dpcollapse.scenes.registry import build_mesh
 from tests.helpers import ROOT

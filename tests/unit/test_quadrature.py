@@ -5,7 +5,7 @@ import numpy as np
 from mpi4py import MPI
 
 from dpcollapse.config import load_config
-from dpcollapse.discretization import Discretization
+from dpcollapse.models.stokes.discretization import Discretization
 from dpcollapse.scenes.registry import build_mesh
 from tests.helpers import ROOT
 

@@ -21,7 +21,7 @@ def _cfg(*overrides):
 
 
 def test_the_registry_finds_both_models():
-    from dpcollapse.discretization import StokesFactory
+    from dpcollapse.models.stokes.discretization import StokesFactory
     from dpcollapse.models.savage_hutter.adapter import SavageHutterFactory
 
     found = model_factories()

@@ -87,10 +87,14 @@ def predicted_error(change: float, history: list[tuple[int, float]]) -> float:
 
 
 class NewtonFlow(RegularizedFlow):
-    """The regularized model solved by Newton (chosen by ``RegularizedFlow.from_config``)."""
+    """The regularized model solved by Newton (``numerics.nonlinear_solver: newton``)."""
 
-    #: not a numerics.method of its own (the registry skips it): numerics.nonlinear_solver
-    method = None
+    method = "regularized"
+    nonlinear_solver = "newton"
+
+    @classmethod
+    def from_config(cls, tagged: TaggedMesh, cfg, params: FlowParameters) -> NewtonFlow:
+        return cls(tagged, params, newton_settings(cfg))
 
     def __init__(self, tagged: TaggedMesh, params: FlowParameters, settings: NewtonSettings):
         self.newton = settings

@@ -67,14 +67,11 @@ class RegularizedFlow(StokesState):
     #: its ``numerics.method``
     method = "regularized"
 
+    #: its ``numerics.nonlinear_solver`` (``models.stokes.newton.NewtonFlow``: newton)
+    nonlinear_solver = "picard"
+
     @classmethod
     def from_config(cls, tagged: TaggedMesh, cfg, params: FlowParameters) -> RegularizedFlow:
-        """Picard (this class) or, with ``numerics.nonlinear_solver: newton``, Newton
-        (``models.stokes.newton.NewtonFlow``)."""
-        if cfg.numerics.nonlinear_solver == "newton":
-            from dpcollapse.models.stokes.newton import NewtonFlow, newton_settings
-
-            return NewtonFlow(tagged, params, newton_settings(cfg))
         return cls(tagged, params, picard_settings(cfg))
 
     def __init__(self, tagged: TaggedMesh, params: FlowParameters, settings: PicardSettings):

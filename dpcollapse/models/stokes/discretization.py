@@ -67,8 +67,11 @@ def direct_solver(cfg: Config) -> str:
 
 
 def make_flow(tagged: TaggedMesh, cfg: Config, scene=None):
-    """The model of ``numerics.method`` on one mesh (``models.registry``)."""
-    return model_class(cfg.numerics.method).from_config(tagged, cfg, flow_parameters(cfg, scene))
+    """The model of ``numerics.method`` and ``numerics.nonlinear_solver`` on one mesh
+    (``models.registry``)."""
+    n = cfg.numerics
+    return model_class(n.method, n.nonlinear_solver).from_config(tagged, cfg,
+                                                                 flow_parameters(cfg, scene))
 
 
 class Discretization:
