@@ -210,14 +210,11 @@ def summary(cfg: Config, source: Path | str | None = None) -> str:
         a = augmented_settings(cfg)
         lines.insert(2, f"  augmented Lagrangian: r = {a.augmentation:.4g} Pa s, r_f = "
                         f"{a.augmentation_friction:.4g} Pa s/m, at most {a.max_iterations} iterations per step")
-    if m.rheology == "mu_i":
-        from dpcollapse.rheology.wellposedness import well_posed_window
-        from dpcollapse.simulation import rheology
+    from dpcollapse.rheology.choice import law_from_material
 
-        lo, hi = well_posed_window(rheology(cfg))
-        window = (f"{lo:.4g} < I < {hi:.4g}" if lo == lo else "empty (ill-posed for every I)")
-        lines.insert(2, f"  mu(I): mu_2 = {m.mu_2:.4f}, I0 = {m.inertial_number_I0:g}, "
-                        f"d = {m.grain_diameter:g} m; well-posed (Barker et al. 2015) for {window}")
+    law = law_from_material(m).describe()
+    if law:
+        lines.insert(2, f"  {law}")
     return "\n".join(lines)
 
 

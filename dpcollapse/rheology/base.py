@@ -29,6 +29,11 @@ class Rheology(Protocol):
     viscosity_cap: float | None
     #: False when η is a constant (Drucker–Prager): rate_viscosity is then a float.
     rate_dependent: bool
+    #: Its ``material.rheology`` (``rheology.choice.LAWS``).
+    name: str
+    #: The grain size the law carries [m] (0 when none): films thinner than a few of it are
+    #: not flowing material (the thickness front).
+    grain_scale: float
 
     def yield_stress(self, p):
         """κ(p) [Pa] as UFL (Frobenius convention: √2 times the simple-shear yield stress)."""
@@ -47,6 +52,9 @@ class Rheology(Protocol):
 
     def diagnostic_fields(self, u, p, epsilon) -> dict:
         """Extra cell fields worth writing, name -> UFL scalar (empty when none)."""
+
+    def describe(self) -> str:
+        """One line of the law's own parameters for ``dpcollapse check`` ("" when none)."""
 
     def well_posed_window(self) -> tuple[float, float] | None:
         """(I_min, I_max): the inertial numbers where the law is linearly well posed; None

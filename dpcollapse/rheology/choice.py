@@ -1,4 +1,6 @@
-"""The constitutive law named by a config's ``material`` section."""
+"""The constitutive law named by a config's ``material`` section: a registry of the laws by
+their ``name`` (a new law is one module in this package, one class with ``name`` and
+``from_material``, added to :data:`LAWS`, and its config keys)."""
 
 from __future__ import annotations
 
@@ -6,11 +8,11 @@ from dpcollapse.rheology.base import Rheology
 from dpcollapse.rheology.drucker_prager import DruckerPrager
 from dpcollapse.rheology.mu_i import MuI
 
+#: ``material.rheology`` -> the law's class.
+LAWS: dict[str, type] = {law.name: law for law in (DruckerPrager, MuI)}
+
 
 def law_from_material(m) -> Rheology:
-    """DruckerPrager(η, μ_s, cohesion) for ``material.rheology: drucker_prager``, or
-    MuI(μ_s, μ_2, I0, d, ρ_s, cohesion, η_max) for ``mu_i``; ``m`` is ``cfg.material``."""
-    if m.rheology == "mu_i":
-        return MuI(mu_s=m.mu_s, mu_2=m.mu_2, I0=m.inertial_number_I0, grain_diameter=m.grain_diameter,
-                   grain_density=m.grain_density, cohesion=m.cohesion, viscosity_cap=m.viscosity_cap)
-    return DruckerPrager(m.viscosity, m.mu_s, m.cohesion)
+    """The law of ``material.rheology`` built from ``m`` = ``cfg.material``:
+    DruckerPrager(η, μ_s, cohesion) or MuI(μ_s, μ_2, I0, d, ρ_s, cohesion, η_max)."""
+    return LAWS[m.rheology].from_material(m)

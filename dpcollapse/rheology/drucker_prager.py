@@ -36,6 +36,15 @@ class DruckerPrager:
     viscosity_cap: ClassVar[None] = None
     #: η does not depend on (|D|, p)
     rate_dependent: ClassVar[bool] = False
+    #: its ``material.rheology``
+    name: ClassVar[str] = "drucker_prager"
+    #: no grain size enters the law [m]
+    grain_scale: ClassVar[float] = 0.0
+
+    @classmethod
+    def from_material(cls, m) -> DruckerPrager:
+        """The law of a config's ``material`` section (η, μ_s, cohesion)."""
+        return cls(m.viscosity, m.mu_s, m.cohesion)
 
     def __post_init__(self):
         if not (self.cohesion >= 0 and math.isfinite(self.cohesion)):
@@ -69,6 +78,10 @@ class DruckerPrager:
     def diagnostic_fields(self, u, p, epsilon) -> dict:
         """None beyond the common ones."""
         return {}
+
+    def describe(self) -> str:
+        """Nothing beyond μ_s, which every summary prints (empty)."""
+        return ""
 
     def well_posed_window(self) -> tuple[float, float] | None:
         """Not a μ(I) law: no inertial-number window (None)."""

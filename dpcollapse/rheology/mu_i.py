@@ -81,6 +81,19 @@ class MuI:
     pressure_floor: ClassVar[float] = PRESSURE_FLOOR
     #: η_μI depends on |D| and p
     rate_dependent: ClassVar[bool] = True
+    #: its ``material.rheology``
+    name: ClassVar[str] = "mu_i"
+
+    @classmethod
+    def from_material(cls, m) -> MuI:
+        """The law of a config's ``material`` section."""
+        return cls(mu_s=m.mu_s, mu_2=m.mu_2, I0=m.inertial_number_I0, grain_diameter=m.grain_diameter,
+                   grain_density=m.grain_density, cohesion=m.cohesion, viscosity_cap=m.viscosity_cap)
+
+    @property
+    def grain_scale(self) -> float:
+        """The grain size d [m] (the thinnest film the flow can carry is a few d)."""
+        return self.grain_diameter
 
     def __post_init__(self):
         if not (_finite(self.mu_s) and self.mu_s > 0):
@@ -175,6 +188,14 @@ class MuI:
     def diagnostic_fields(self, u, p, epsilon) -> dict:
         """The inertial number I per cell."""
         return {"inertial_number": self.inertial_number(u, p, epsilon)}
+
+    def describe(self) -> str:
+        """One line for ``dpcollapse check``: the parameters beyond μ_s and the window of I
+        where the law is well posed."""
+        lo, hi = self.well_posed_window()
+        window = f"{lo:.4g} < I < {hi:.4g}" if lo == lo else "empty (ill-posed for every I)"
+        return (f"mu(I): mu_2 = {self.mu_2:.4f}, I0 = {self.I0:g}, d = {self.grain_diameter:g} m; "
+                f"well-posed (Barker et al. 2015) for {window}")
 
     def well_posed_window(self) -> tuple[float, float]:
         """(I_min, I_max) of Barker et al. (2015) (``rheology.wellposedness``); (nan, nan)

@@ -74,3 +74,35 @@ def test_no_type_questions_about_the_rheology():
             if pattern.search(line):
                 offenders.append(f"{path.relative_to(ROOT)}:{k}: {line.strip()}")
     assert not offenders, "\n".join(offenders)
+
+
+def test_every_law_is_found_by_its_name_and_says_what_other_models_need():
+    """A law is one class registered under its ``material.rheology`` (``rheology.choice.LAWS``):
+    built from the material section, with its grain scale and its depth-averaged friction."""
+    from dpcollapse.config import load_config
+    from dpcollapse.models.savage_hutter.setup import _DEPTH_AVERAGED_FRICTION
+    from dpcollapse.rheology.choice import LAWS, law_from_material
+
+    assert set(LAWS) == {"drucker_prager", "mu_i"}
+    assert set(_DEPTH_AVERAGED_FRICTION) == set(LAWS.values())
+    for name, cls in LAWS.items():
+        cfg = load_config(ROOT / "configs/rigid.yaml", [f"material.rheology={name}"])
+        law = law_from_material(cfg.material)
+        assert type(law) is cls and law.name == name
+        assert law.grain_scale == (cfg.material.grain_diameter if law.rate_dependent else 0.0)
+        assert isinstance(law.describe(), str)
+
+
+def test_no_branching_on_the_law_name_outside_rheology():
+    """The library's models never ask ``material.rheology == "…"``: they ask the law
+    (config.py's validators and the validation/ study drivers, which require a law, may)."""
+    pattern = re.compile(r"""rheology\s*(==|!=)|(==|!=)\s*["'](mu_i|drucker_prager)["']""")
+    offenders = []
+    for path in (ROOT / "dpcollapse").rglob("*.py"):
+        parts = path.relative_to(ROOT / "dpcollapse").parts
+        if parts[0] in ("rheology", "validation", "config.py"):
+            continue
+        for k, line in enumerate(path.read_text().splitlines(), 1):
+            if pattern.search(line):
+                offenders.append(f"{path.relative_to(ROOT)}:{k}: {line.strip()}")
+    assert not offenders, "\n".join(offenders)

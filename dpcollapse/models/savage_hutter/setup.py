@@ -34,6 +34,9 @@ from dpcollapse.models.savage_hutter.friction import CoulombFriction, MuIFrictio
 from dpcollapse.models.savage_hutter.initial import (column_vertices, polygon_area,
                                                      polygon_cell_averages, trapezoid_vertices)
 from dpcollapse.models.savage_hutter.solver import Grid, SavageHutter
+from dpcollapse.rheology.choice import law_from_material
+from dpcollapse.rheology.drucker_prager import DruckerPrager
+from dpcollapse.rheology.mu_i import MuI
 
 __all__ = ["SavageHutterSetup", "basal_friction", "domain_end", "earth_pressure",
            "setup_from_config"]
@@ -69,10 +72,18 @@ def basal_friction(cfg) -> tuple[CoulombFriction | MuIFriction, str]:
         choice = "bed" if slides else "rheology"
     if choice == "bed":
         return CoulombFriction(b.mu_bed), choice
-    if m.rheology == "mu_i":
-        return MuIFriction(mu_s=m.mu_s, mu_2=m.mu_2, i0=m.inertial_number_I0,
-                           grain_diameter=m.grain_diameter, g=m.gravity), choice
-    return CoulombFriction(m.mu_s), choice
+    law = law_from_material(m)
+    return _DEPTH_AVERAGED_FRICTION[type(law)](law, m.gravity), choice
+
+
+#: The basal friction that each 2D law gives the depth-averaged model (a law without an
+#: entry here has no depth-averaged form: a KeyError in ``basal_friction``, a test checks
+#: every law of ``rheology.choice.LAWS`` has one).
+_DEPTH_AVERAGED_FRICTION = {
+    DruckerPrager: lambda law, g: CoulombFriction(law.friction_coefficient),
+    MuI: lambda law, g: MuIFriction(mu_s=law.mu_s, mu_2=law.mu_2, i0=law.I0,
+                                    grain_diameter=law.grain_diameter, g=g),
+}
 
 
 def earth_pressure(cfg, source: str) -> EarthPressure | None:

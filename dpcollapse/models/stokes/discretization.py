@@ -88,8 +88,8 @@ class Discretization:
         self.flow = make_flow(tagged, cfg, self.scene)
         self.orientation = cell_orientation(mesh)
         # the thickness front: max(3 d, h/4); d only where the law has grains (mu_i)
-        grains = cfg.material.grain_diameter if cfg.material.rheology == "mu_i" else 0.0
-        self.film_threshold = film_threshold(grains, cfg.geometry.mesh_size)
+        self.film_threshold = film_threshold(self.flow.params.rheology.grain_scale,
+                                             cfg.geometry.mesh_size)
         self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
                                  direct_solver(cfg)) if cfg.numerics.ale else None
         u, p = ufl.split(self.flow.solution)

@@ -121,9 +121,8 @@ class TwoPhaseDiscretization:
         self.flow = flow = make_flow(tagged, cfg)
         self.fraction = flow.fraction
         g, model = cfg.geometry, cfg.model
-        grains = cfg.material.grain_diameter if cfg.material.rheology == "mu_i" else 0.0
         fine = cell_sizes(cfg)[0]
-        self.film_threshold = film_threshold(grains, fine)
+        self.film_threshold = film_threshold(law_from_material(cfg.material).grain_scale, fine)
         self.threshold = model.fraction_threshold
         # the erodible scene: c_L, and the fronts above the layer (2 h_e, as the ALE scene)
         self.layer = LayerTracer(flow, g) if g.shape == "erodible" else None
