@@ -33,7 +33,8 @@ LAYERS: list[tuple[str, ...]] = [
     ("domain",),
     ("models",),
     ("loop", "simulation"),
-    ("plot", "validation", "bench", "bench_krylov", "sweep"),
+    ("plot", "validation", "sweep"),
+    ("studies",),
     ("cli", "config_doc", "__init__"),
 ]
 

@@ -876,8 +876,8 @@ def run(quick=False, out="docs", work="runs/ladder", only=None, redo=False, plot
 
 
 def main(argv=None) -> int:
-    """``python -m dpcollapse.validation.ladder``: the same as ``dpcollapse ladder``."""
-    parser = argparse.ArgumentParser(prog="python -m dpcollapse.validation.ladder")
+    """``python -m dpcollapse.studies.ladder``: the same as ``dpcollapse ladder``."""
+    parser = argparse.ArgumentParser(prog="python -m dpcollapse.studies.ladder")
     parser.add_argument("--quick", action="store_true",
                         help="two tiny cases (3 cm 2D cells; SH Δx 4 mm): the test")
     parser.add_argument("--out", default="docs", help="folder of ladder.csv, ladder_series.csv, ladder.png")

@@ -61,7 +61,7 @@ import numpy as np
 
 from dpcollapse.errors import ConfigError, DpcollapseError, Interrupted
 
-log = logging.getLogger("dpcollapse.bench")
+log = logging.getLogger("dpcollapse.studies.bench")
 
 #: Timed repeats (after one warm-up) of the reference linear solve; the median is used.
 REPEATS = 5
@@ -122,7 +122,7 @@ PARTS = ("assembly", "factorization", "solve", "picard_other", "mesh_motion", "r
 
 def default_configs_dir() -> Path:
     """The repository's configs/ (next to the package), else ./configs."""
-    here = Path(__file__).resolve().parent.parent / "configs"
+    here = Path(__file__).resolve().parents[2] / "configs"
     return here if here.is_dir() else Path("configs")
 
 
