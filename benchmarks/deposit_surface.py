@@ -1,6 +1,6 @@
 """The free surface at rest of several runs, overlaid (issue 25: no new oscillation at the toe).
 
-    python benchmarks/deposit_surface.py --png docs/time_order_deposit.png LABEL=RUN_DIR ...
+    python benchmarks/deposit_surface.py --png docs/figures/time_order_deposit.png LABEL=RUN_DIR ...
 
 Reads each run's ``checkpoint.npz`` (the mesh at the last accepted step) and draws its
 free-surface edges (tag SURFACE), the whole deposit and a close-up of the toe.

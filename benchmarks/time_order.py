@@ -1,7 +1,7 @@
 """Error against cost of the time schemes on the rigid collapse (issue 25).
 
     python benchmarks/time_order.py --reference RUN_DT RUN_DT2 --runs RUN ... \
-        --csv docs/time_order_2cm.csv --png docs/time_order_2cm.png
+        --csv docs/figures/time_order_2cm.csv --png docs/figures/time_order_2cm.png
     python benchmarks/time_order.py --reference-run FINEST --times 0.024 0.048 0.072 0.096 \
         --quantity kinetic_energy --runs RUN ... --csv … --png …
 

@@ -484,7 +484,7 @@ def stability(scene: str, quick: bool, config: Path | None, out: Path | None, me
 
 @cli.command()
 @click.option("--quick", is_flag=True, help="Two tiny cases (3 cm 2D cells; SH dx 4 mm): the test.")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("docs"),
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("runs/ladder"),
               show_default=True, help="Folder of ladder.csv, ladder_series.csv, ladder.png.")
 @click.option("--work", type=click.Path(file_okay=False, path_type=Path), default=Path("runs/ladder"),
               show_default=True, help="Folder of the 2D run directories.")

@@ -1,6 +1,6 @@
 """The model ladder, measured (issue 15): the 2D solver and the depth-averaged model on one scene.
 
-    dpcollapse ladder [--quick] [--out docs] [--work runs/ladder]
+    dpcollapse ladder [--quick] [--out docs/figures] [--work runs/ladder]
                                            [--only CASE]... [--redo] [--plot-only]
 
 For each case (a config of ``configs/`` plus ``--set`` overrides) both rungs run on the same
@@ -802,7 +802,7 @@ def sh_resolution(case: Case, end_time: float | None = None) -> list[dict]:
 
 
 # ----------------------------------------------------------------------------- main
-def run(quick=False, out="docs", work="runs/ladder", only=None, redo=False, plot_only=False,
+def run(quick=False, out="runs/ladder", work="runs/ladder", only=None, redo=False, plot_only=False,
         sh_case=None, echo=print, shallow=False) -> int:
     """Run the plan (skipping cases already in the CSV), write the CSVs, the chart, the table.
 
@@ -880,7 +880,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m dpcollapse.studies.ladder")
     parser.add_argument("--quick", action="store_true",
                         help="two tiny cases (3 cm 2D cells; SH Δx 4 mm): the test")
-    parser.add_argument("--out", default="docs", help="folder of ladder.csv, ladder_series.csv, ladder.png")
+    parser.add_argument("--out", default="runs/ladder", help="folder of ladder.csv, ladder_series.csv, ladder.png")
     parser.add_argument("--work", default="runs/ladder", help="folder of the 2D run directories")
     parser.add_argument("--only", nargs="*", default=None, help="run only these cases")
     parser.add_argument("--redo", action="store_true", help="run cases already in the CSV again")

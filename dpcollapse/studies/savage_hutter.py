@@ -1,6 +1,6 @@
 """Verification of the Savage–Hutter solver: convergence tables and plots.
 
-    python -m dpcollapse.studies.savage_hutter [--quick] [--out docs]
+    python -m dpcollapse.studies.savage_hutter [--quick] [--out docs/figures]
 
 * Mangeney et al. (2000) dam break: θ = 22°, δ = 21°, h0 = 1 m, dam at x = 0, domain
   [−20, 40] m with open (zero-gradient) ends — the sliding reservoir h = h0, ū = m t is then
@@ -16,7 +16,7 @@
 * The shape factor α = 5/4 on a column: fastest speed and runout against the taper depth h_α.
 * The 1600-cell dam break timing (best and median of repeats, load average stated).
 
-Writes docs/savage_hutter_mangeney.png and docs/savage_hutter_kerswell.png.
+Writes docs/figures/savage_hutter_mangeney.png and docs/figures/savage_hutter_kerswell.png.
 """
 
 from __future__ import annotations
@@ -230,7 +230,7 @@ def main(argv=None) -> int:
     """Print the tables, write the plots; exit code 0."""
     parser = argparse.ArgumentParser(prog="python -m dpcollapse.studies.savage_hutter")
     parser.add_argument("--quick", action="store_true", help="coarser meshes, fewer repeats")
-    parser.add_argument("--out", default="docs", help="directory of the PNG plots")
+    parser.add_argument("--out", default="runs/savage_hutter", help="directory of the PNG plots")
     args = parser.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
