@@ -273,14 +273,11 @@ def test_pile_against_a_wall_on_a_slope_steeper_than_friction(fraction, at_rest)
 
 
 def test_polygon_profiles_are_exact_cell_averages():
-    from dpcollapse.models.savage_hutter.initial import (
-        column_vertices,
-        polygon_area,
-        polygon_cell_averages,
-        trapezoid_vertices,
-    )
+    from dpcollapse.geometry.trapezoid import trapezoid_polygon
+    from dpcollapse.models.savage_hutter.initial import polygon_area, polygon_cell_averages
+
     # rigid.yaml: h0 = 0.25, l0 = 0.297, 70°: area l0 h0 − h0²/(2 tan 70°) = 0.0628759 m²
-    trap = trapezoid_vertices(0.25, 0.297, 70.0)
+    trap = trapezoid_polygon(0.25, 0.297, 70.0)[0]
     assert polygon_area(trap) == pytest.approx(0.0628759, abs=1e-7)
     grid = Grid(0.0, 1.0, 137)                       # edges not on the polygon's corners
     h = polygon_cell_averages(trap, grid)
@@ -290,5 +287,5 @@ def test_polygon_profiles_are_exact_cell_averages():
     # triangle (0,0) (1,0) (0,1): T = 1 − x, average over [0, 0.5] = 0.75
     tri = polygon_cell_averages([[0, 0], [1, 0], [0, 1]], Grid(0.0, 1.0, 2))
     assert tri.tolist() == pytest.approx([0.75, 0.25])
-    col = polygon_cell_averages(column_vertices(0.4, 0.2), Grid(0.0, 1.0, 10))
+    col = polygon_cell_averages([[0, 0], [0.2, 0], [0.2, 0.4], [0, 0.4]], Grid(0.0, 1.0, 10))
     assert col.tolist() == pytest.approx([0.4, 0.4] + [0.0] * 8)

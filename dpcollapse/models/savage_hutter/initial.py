@@ -14,13 +14,11 @@ cell [x_l, x_r] is exact: Σ −sign(Δx_e) · overlap length · y_e(overlap mid
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from dpcollapse.models.savage_hutter.solver import Grid
 
-__all__ = ["column_vertices", "polygon_area", "polygon_cell_averages", "trapezoid_vertices"]
+__all__ = ["polygon_area", "polygon_cell_averages"]
 
 
 def polygon_area(vertices) -> float:
@@ -50,19 +48,3 @@ def polygon_cell_averages(vertices, grid: Grid) -> np.ndarray:
     y_mid = a[:, 1][:, None] + slope * (mid - a[:, 0][:, None])
     sign = -np.sign(dx_e)[:, None]
     return np.sum(sign * overlap * y_mid, axis=0) / grid.dx
-
-
-def column_vertices(height: float, length: float, x0: float = 0.0) -> np.ndarray:
-    """Rectangle [x0, x0 + length] × [0, height] (counter-clockwise)."""
-    return np.array([[x0, 0.0], [x0 + length, 0.0], [x0 + length, height], [x0, height]])
-
-
-def trapezoid_vertices(height: float, base_length: float, flank_angle_deg: float,
-                       x0: float = 0.0) -> np.ndarray:
-    """The rigid-bed scene of seeds 000/001 (reference README's reading): wall at x0, toe at
-    x0 + l0, the right flank rising at α0 back over the mass; vertices (x0, 0), (x0 + l0, 0),
-    (x0 + l0 − h0/tan α0, h0), (x0, h0)."""
-    top = base_length - height / math.tan(math.radians(flank_angle_deg))
-    if top < 0:
-        raise ValueError("the flank reaches the wall below the top: not a trapezoid")
-    return np.array([[x0, 0.0], [x0 + base_length, 0.0], [x0 + top, height], [x0, height]])

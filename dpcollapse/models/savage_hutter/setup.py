@@ -31,12 +31,12 @@ import numpy as np
 
 from dpcollapse.models.savage_hutter.earth_pressure import EarthPressure
 from dpcollapse.models.savage_hutter.friction import CoulombFriction, MuIFriction, SideWallFriction
-from dpcollapse.models.savage_hutter.initial import (column_vertices, polygon_area,
-                                                     polygon_cell_averages, trapezoid_vertices)
+from dpcollapse.models.savage_hutter.initial import polygon_area, polygon_cell_averages
 from dpcollapse.models.savage_hutter.solver import Grid, SavageHutter
 from dpcollapse.rheology.choice import law_from_material
 from dpcollapse.rheology.drucker_prager import DruckerPrager
 from dpcollapse.rheology.mu_i import MuI
+from dpcollapse.scenes.registry import scene as make_scene
 
 __all__ = ["SavageHutterSetup", "basal_friction", "domain_end", "earth_pressure",
            "setup_from_config"]
@@ -98,13 +98,10 @@ def earth_pressure(cfg, source: str) -> EarthPressure | None:
 
 
 def scene_polygon(cfg) -> np.ndarray:
-    """The initial mass of the config's scene as a polygon (wall at x = 0) [m]."""
-    g = cfg.geometry
-    if g.shape == "trapezoid":
-        return trapezoid_vertices(g.height, g.base_length, g.flank_angle)
-    if g.shape == "column":
-        return column_vertices(g.height, g.base_length)
-    raise ValueError(f"geometry.shape = {g.shape!r} has no depth-averaged form")
+    """The initial mass of the config's scene as a polygon (wall at x = 0) [m]: the scene's
+    own (``scenes/``; the config admits only scenes whose ``models`` include savage_hutter)."""
+    points, _ = make_scene(cfg).polygon()
+    return np.asarray(points, dtype=float)
 
 
 def setup_from_config(cfg) -> SavageHutterSetup:
