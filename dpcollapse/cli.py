@@ -163,58 +163,13 @@ def check(config: Path, overrides: tuple[str, ...]) -> int:
 
 
 def summary(cfg: Config, source: Path | str | None = None) -> str:
-    """A few lines describing a valid config (derived numbers with units)."""
-    g, t, m = cfg.geometry, cfg.time, cfg.material
-    shape = g.describe()
-    lines = [
-        f"{source}: valid" if source else "config: valid",
-        f"  mu_s = {m.mu_s:.4f}  mu_b = {cfg.boundary.mu_bed:.4f}  "
-        f"mu_l = {cfg.boundary.mu_wall:.4f}",
-        f"  {shape}",
-        (f"  time: adaptive dt from {t.dt:g} s up to {t.dt_max:g} s (Courant number <= {t.cfl:g}), "
-         f"end {t.end_time:g} s" if t.adaptive else
-         f"  time: dt {t.dt:g} s, end {t.end_time:g} s, at most {t.max_steps} steps"),
-        f"  output: {cfg.output.directory}",
-    ]
-    if cfg.model.name == "savage_hutter":
-        from dpcollapse.models.savage_hutter.setup import setup_from_config
+    """A few lines describing a valid config (derived numbers with units): the model's own
+    (its factory's ``describe``), then the output directory."""
+    from dpcollapse.models.registry import model_factories
 
-        sh = setup_from_config(cfg)
-        basal = sh.model.basal
-        law = (f"mu(I): mu_s = {basal.mu_s:.4f}, mu_2 = {basal.mu_2:.4f}" if hasattr(basal, "i0")
-               else f"Coulomb mu_b = {basal.mu:.4f}")
-        lines[1:2] = [f"  depth-averaged Savage-Hutter model: basal friction {law} (from the "
-                      f"{sh.friction}), slope {sh.model.slope_deg:g} deg, alpha = "
-                      f"{sh.model.shape_factor:g}, order {sh.model.order}",
-                      f"  grid: {sh.grid.n_cells} cells on [{sh.grid.x_min:g}, {sh.grid.x_max:g}] m "
-                      f"(dx = {sh.grid.dx:.4g} m), {cfg.model.left} / {cfg.model.right} ends, "
-                      f"CFL {sh.model.cfl:g}"]
-        lines[-2] = (f"  time: steps of at most {t.dt:g} s (the CFL limit rules below it), "
-                     f"end {t.end_time:g} s")
-        return "\n".join(lines)
-    if cfg.model.name == "two_phase":
-        from dpcollapse.config import MEMORY_PER_CELL, box_cells
-
-        cells = box_cells(cfg.model.box_length, cfg.model.box_height, g.mesh_size)
-        lines.insert(2, f"  two-phase box {cfg.model.box_length:g} x {cfg.model.box_height:g} m: "
-                        f"about {cells:.3g} cells (about {cells * MEMORY_PER_CELL / 1e6:.3g} MB)")
-    if cfg.model.name == "stokes":
-        from dpcollapse.config import MEMORY_PER_CELL, mesh_cells
-
-        cells = mesh_cells(g.area, g.mesh_size)
-        lines.insert(2, f"  mesh: about {cells:.3g} cells at {g.mesh_size:g} m "
-                        f"(about {cells * MEMORY_PER_CELL / 1e6:.3g} MB)")
-    if cfg.numerics.method == "augmented_lagrangian":
-        from dpcollapse.models.stokes.augmented import augmented_settings
-
-        a = augmented_settings(cfg)
-        lines.insert(2, f"  augmented Lagrangian: r = {a.augmentation:.4g} Pa s, r_f = "
-                        f"{a.augmentation_friction:.4g} Pa s/m, at most {a.max_iterations} iterations per step")
-    from dpcollapse.rheology.choice import law_from_material
-
-    law = law_from_material(m).describe()
-    if law:
-        lines.insert(2, f"  {law}")
+    lines = [f"{source}: valid" if source else "config: valid",
+             *(f"  {line}" for line in model_factories()[cfg.model.name].describe(cfg)),
+             f"  output: {cfg.output.directory}"]
     return "\n".join(lines)
 
 

@@ -226,6 +226,20 @@ class SavageHutterFactory:
     def from_config(cls, cfg) -> SavageHutterFactory:
         return cls(cfg)
 
+    @staticmethod
+    def describe(cfg) -> list[str]:
+        """The lines of ``dpcollapse check``: the model, its grid, the mass, the time steps."""
+        sh, t = setup_from_config(cfg), cfg.time
+        return [f"depth-averaged Savage-Hutter model: basal friction {sh.model.basal.describe()} "
+                f"(from the {sh.friction}), slope {sh.model.slope_deg:g} deg, alpha = "
+                f"{sh.model.shape_factor:g}, order {sh.model.order}",
+                f"grid: {sh.grid.n_cells} cells on [{sh.grid.x_min:g}, {sh.grid.x_max:g}] m "
+                f"(dx = {sh.grid.dx:.4g} m), {cfg.model.left} / {cfg.model.right} ends, "
+                f"CFL {sh.model.cfl:g}",
+                cfg.geometry.describe(),
+                f"time: steps of at most {t.dt:g} s (the CFL limit rules below it), "
+                f"end {t.end_time:g} s"]
+
     def domain(self) -> FixedDomain:
         """A fixed 1D grid: nothing moves, nothing is remeshed."""
         return FixedDomain()

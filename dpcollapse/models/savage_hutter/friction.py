@@ -56,6 +56,9 @@ class CoulombFriction:
         if not (self.mu >= 0 and math.isfinite(self.mu)):
             raise ValueError(f"Coulomb friction coefficient must be >= 0, got {self.mu}")
 
+    def describe(self) -> str:
+        return f"Coulomb mu_b = {self.mu:.4f}"
+
     def static(self, h):
         """μ_b at rest (Ī = 0) [-], broadcast to h's shape."""
         return np.full(np.shape(h), self.mu)
@@ -89,6 +92,9 @@ class MuIFriction:
             raise ValueError(f"need 0 <= mu_s <= mu_2, got {self.mu_s}, {self.mu_2}")
         if not (self.i0 > 0 and self.grain_diameter > 0 and self.g > 0):
             raise ValueError("i0, grain_diameter and g must be > 0")
+
+    def describe(self) -> str:
+        return f"mu(I): mu_s = {self.mu_s:.4f}, mu_2 = {self.mu_2:.4f}"
 
     def static(self, h):
         """μ(0) = μ_s [-], broadcast to h's shape."""

@@ -108,6 +108,13 @@ class AugmentedLagrangianFlow(StokesState):
 
     #: its ``numerics.method``
     method = "augmented_lagrangian"
+
+    @staticmethod
+    def describe(cfg) -> list[str]:
+        """Its line of ``dpcollapse check``: the augmentation parameters."""
+        a = augmented_settings(cfg)
+        return [f"augmented Lagrangian: r = {a.augmentation:.4g} Pa s, r_f = "
+                f"{a.augmentation_friction:.4g} Pa s/m, at most {a.max_iterations} iterations per step"]
     #: an iteration is one back-substitution, not a factorization (measured 3 ms against
     #: 15 ms per Picard iteration on the 2 cm collapse): the adaptive step's thresholds on
     #: the iteration count are this many times those of the regularized model

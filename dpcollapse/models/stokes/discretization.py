@@ -252,6 +252,21 @@ class StokesFactory:
 
     model_name = "stokes"
 
+    @staticmethod
+    def describe(cfg) -> list[str]:
+        """The lines of ``dpcollapse check``: the mesh's cell estimate (and memory), the
+        augmented Lagrangian's parameters when it is the method."""
+        from dpcollapse.config import MEMORY_PER_CELL, mesh_cells
+        from dpcollapse.models.describe import lines_2d
+
+        g = cfg.geometry
+        cells = mesh_cells(g.area, g.mesh_size)
+        own = [f"mesh: about {cells:.3g} cells at {g.mesh_size:g} m "
+               f"(about {cells * MEMORY_PER_CELL / 1e6:.3g} MB)"]
+        flow = model_class(cfg.numerics.method, cfg.numerics.nonlinear_solver)
+        own += flow.describe(cfg)
+        return lines_2d(cfg, own)
+
     def __init__(self, cfg: Config):
         self.cfg = cfg
 

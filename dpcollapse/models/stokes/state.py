@@ -88,6 +88,11 @@ def distance_to_limit(change: float, rho: float) -> float:
 class StokesState:
     """Spaces, named fields, conditions and state access of a Stokes model on one mesh."""
 
+    @staticmethod
+    def describe(cfg) -> list[str]:
+        """The flow method's own lines of ``dpcollapse check`` (none here)."""
+        return []
+
     def __init__(self, tagged: TaggedMesh, params: FlowParameters):
         self.tagged = tagged
         self.mesh = mesh = tagged.mesh

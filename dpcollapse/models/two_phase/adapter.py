@@ -284,6 +284,17 @@ class TwoPhaseFactory:
     def from_config(cls, cfg) -> TwoPhaseFactory:
         return cls(cfg)
 
+    @staticmethod
+    def describe(cfg) -> list[str]:
+        """The lines of ``dpcollapse check``: the 2D model's, with the box's cell estimate."""
+        from dpcollapse.config import MEMORY_PER_CELL, box_cells
+        from dpcollapse.models.describe import lines_2d
+
+        m = cfg.model
+        cells = box_cells(m.box_length, m.box_height, cfg.geometry.mesh_size)
+        return lines_2d(cfg, [f"two-phase box {m.box_length:g} x {m.box_height:g} m: about "
+                              f"{cells:.3g} cells (about {cells * MEMORY_PER_CELL / 1e6:.3g} MB)"])
+
     def domain(self) -> FixedDomain | AdaptiveBox:
         """The box: nothing moves; the adaptive mesh (``adaptive.AdaptiveBox``) is rebuilt
         around the granular phase, the uniform one never."""
