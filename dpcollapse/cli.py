@@ -215,10 +215,13 @@ def run(config: Path, overrides: tuple[str, ...], out: str | None, quiet: bool,
 def mesh(config: Path, overrides: tuple[str, ...], out: Path | None) -> int:
     """Write the initial mesh of CONFIG as a gmsh .msh file."""
     cfg = load_config(config, overrides)
-    if cfg.model.name != "stokes":
-        raise ConfigError(f"model.name = {cfg.model.name}: the depth-averaged model has no 2D mesh "
-                          f"(its grid is model.n_cells = {cfg.model.n_cells} cells); "
-                          "dpcollapse mesh needs model.name = stokes")
+    from dpcollapse.models.registry import model_factories
+
+    factories = model_factories()
+    if not factories[cfg.model.name].meshes_the_scene:
+        allowed = ", ".join(sorted(n for n, f in factories.items() if f.meshes_the_scene))
+        raise ConfigError(f"model.name = {cfg.model.name}: its mesh is not the scene's (a fixed "
+                          f"grid or box); dpcollapse mesh needs model.name = {allowed}")
     path = Path(out or Path("meshes") / f"{config.stem}.msh")
     _check_msh_destination(path)
     write_msh = _lazy("dpcollapse.scenes.registry", "write_msh")

@@ -176,3 +176,12 @@ def test_module_entry_point(tmp_path):
                           capture_output=True, text=True, timeout=120, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr
     assert "valid" in proc.stdout
+
+
+@pytest.mark.parametrize("config", ["column_sh.yaml", "column_eulerian_a1.42.yaml"])
+def test_mesh_of_a_model_without_a_scene_mesh_is_bad_input(tmp_path, capsys, config):
+    """Was exit 1 (AttributeError: no model.n_cells) for the two-phase model."""
+    assert main(["mesh", str(ROOT / "configs" / config), "--out", str(tmp_path / "m.msh")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "dpcollapse mesh needs model.name = stokes" in err[0]
+    assert not (tmp_path / "m.msh").exists()

@@ -217,6 +217,8 @@ class SavageHutterFactory:
     """The depth-averaged model of a config (``model.name = savage_hutter``) for the loop."""
 
     model_name = "savage_hutter"
+    #: whether its mesh is the scene's own (``dpcollapse mesh`` writes it)
+    meshes_the_scene = False
 
     def __init__(self, cfg):
         self.cfg = cfg

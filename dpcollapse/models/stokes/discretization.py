@@ -251,6 +251,8 @@ class StokesFactory:
     """The 2D model (``model.name = stokes``, ``numerics.method``) for the loop."""
 
     model_name = "stokes"
+    #: whether its mesh is the scene's own (``dpcollapse mesh`` writes it)
+    meshes_the_scene = True
 
     @staticmethod
     def describe(cfg) -> list[str]:

@@ -275,6 +275,8 @@ class TwoPhaseFactory:
     """The two-phase model (``model.name = two_phase``) for the loop."""
 
     model_name = "two_phase"
+    #: whether its mesh is the scene's own (``dpcollapse mesh`` writes it)
+    meshes_the_scene = False
 
     def __init__(self, cfg):
         self.cfg = cfg
