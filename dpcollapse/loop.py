@@ -27,8 +27,9 @@ class Discretization(Protocol):
     ``flow`` is the model (``models.base.Model``: solve_step → a report with converged,
     iterations, residual, message and optionally ``dt``, the step actually taken when an
     explicit stage bound cut it; accept_step, reset_iterate, snapshot/transfer,
-    copy_state_from, ``iteration_scale``, ``solver`` with its factorization and Krylov
-    counters). ``measures()`` returns at least front, thick_front, max_height [m], kinetic_energy,
+    copy_state_from, ``iteration_scale``). ``solver_counts()`` gives the counters of its
+    solvers by run.json name (flow_factorizations, krylov_iterations, newton_fallbacks; none
+    for a model that solves no linear system). ``measures()`` returns at least front, thick_front, max_height [m], kinetic_energy,
     gravity_moment [J/m], area [m²], max_speed [m/s], min_angle [deg], min_detJ,
     ill_posed_fraction (NaN where the model has none), the ``extra_measures`` (extra
     diagnostics columns and run.json entries) and optionally ``at_rest`` (the state is an
@@ -42,6 +43,8 @@ class Discretization(Protocol):
     film_threshold: float
 
     def measures(self) -> dict: ...
+
+    def solver_counts(self) -> dict[str, int]: ...
 
     def area(self) -> float: ...
 

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections import Counter
 import signal
 import sys
 import time
@@ -51,11 +52,9 @@ from dpcollapse.io.checkpoint import previous_path
 from dpcollapse.io.diagnostics import DiagnosticsWriter
 from dpcollapse.io.runinfo import RunInfo
 from dpcollapse.io.exports import CheckpointExport, FieldExport
-from dpcollapse.loop import Discretization as ModelDiscretization, Events, LoopState, ModelFactory
+from dpcollapse.loop import Discretization, Events, LoopState, ModelFactory
 from dpcollapse.models.registry import model_factory
 from dpcollapse.solvers.step_control import StepController
-from dpcollapse.models.stokes.discretization import (Discretization, flow_parameters, initial_velocity,  # noqa: F401
-                                       picard_settings, rheology)
 
 log = logging.getLogger("dpcollapse")
 
@@ -190,9 +189,8 @@ class Simulation:
         self.timings = {"solve": 0.0, "mesh_motion": 0.0, "remesh": 0.0, "output": 0.0}
         self.iteration_counts: list[int] = []
         self.step_sizes: list[float] = []
-        self.factorizations = 0  # LU factorizations of the flow system (retired meshes)
-        self.krylov_iterations = 0  # Krylov iterations of the flow solves (retired meshes)
-        self.fallbacks = 0  # step attempts Newton failed and Picard redid (retired meshes)
+        #: the solver counters of retired discretizations (``Discretization.solver_counts``)
+        self.retired_counts: Counter[str] = Counter()
         self.halvings = 0   # step attempts that failed and were retried with dt/2
         #: the error-controlled step (time.tolerance), else None
         self.controller = StepController(cfg.time.tolerance) if cfg.time.tolerance else None
@@ -208,7 +206,7 @@ class Simulation:
         return self.domain.solves
 
     # ------------------------------------------------------------------ pieces
-    def _use(self, disc: ModelDiscretization) -> None:
+    def _use(self, disc: Discretization) -> None:
         """Make ``disc`` the current discretization (event ``discretization``)."""
         self.disc = disc
         self.events.emit("discretization", self, disc)
@@ -284,13 +282,18 @@ class Simulation:
                 f"{m['min_angle']:.2f}°: the mass is likely thinner than geometry.mesh_size = "
                 f"{self.cfg.geometry.mesh_size:g} m somewhere — use a finer mesh or a shorter time.end_time")
 
-    def _retire(self, disc: ModelDiscretization) -> None:
-        """Destroy a discretization, keeping the counts of LU factorizations and Krylov
-        iterations it did."""
-        self.factorizations += disc.flow.solver.factorizations
-        self.krylov_iterations += disc.flow.solver.krylov_iterations
-        self.fallbacks += disc.flow.solver.fallbacks
+    def _retire(self, disc: Discretization) -> None:
+        """Destroy a discretization, keeping the counts of its solvers (LU factorizations,
+        Krylov iterations, Newton fallbacks)."""
+        self.retired_counts.update(disc.solver_counts())
         disc.destroy()
+
+    def solver_counts(self) -> dict[str, int]:
+        """The model's solver counters over the whole run (retired and current meshes)."""
+        counts = dict(self.disc.solver_counts())
+        for key, value in self.retired_counts.items():
+            counts[key] = counts.get(key, 0) + value
+        return counts
 
     def _rebuild(self, tagged: TaggedMesh) -> None:
         """A new discretization on the same mesh with new facet tags; same dofs, so the
@@ -509,10 +512,8 @@ class Simulation:
             "mean_iterations": float(np.mean(its)) if its else 0.0,
             "max_iterations": int(np.max(its)) if its else 0,
             "flow_solves": int(np.sum(its)) if its else 0,
-            "flow_factorizations": self.factorizations + self.disc.flow.solver.factorizations,
+            **self.solver_counts(),
             "mesh_velocity_factorizations": self.ale_solves,
-            "krylov_iterations": self.krylov_iterations + self.disc.flow.solver.krylov_iterations,
-            "newton_fallbacks": self.fallbacks + self.disc.flow.solver.fallbacks,
             "halved_steps": self.halvings,
             "rejected_steps": self.controller.rejected if self.controller else 0,
         }
@@ -576,7 +577,7 @@ def run_simulation(cfg: Config, run_dir: Path, quiet: bool = False, resume: bool
                  "%d remeshes, %.1f s wall", summary["status"], summary["t"], summary["steps"],
                  summary["front"], summary["max_height"], summary["area_drift"], summary["remeshes"],
                  sim.timings["total"])
-        if summary["krylov_iterations"]:
+        if summary.get("krylov_iterations"):
             log.info("%d flow solves, %d Krylov iterations (%.1f per solve)", summary["flow_solves"],
                      summary["krylov_iterations"],
                      summary["krylov_iterations"] / max(summary["flow_solves"], 1))

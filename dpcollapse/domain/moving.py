@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 
 from dpcollapse.ale.motion import quality
-from dpcollapse.domain.regions import remesh_regions
+from dpcollapse.domain.region_remesh import remesh_regions
 from dpcollapse.errors import MeshError
 
 #: Largest area change a remesh may make by dropping boundary vertices, relative to the
@@ -71,7 +71,7 @@ class MovingDomain:
 
     def remesh(self, tagged, area0: float):
         """A new mesh of the current boundary (``ale.remesh``; with several material regions
-        ``domain.regions``, which keeps their interface): (tagged mesh with its cell tags,
+        ``domain.region_remesh``, which keeps their interface): (tagged mesh with its cell tags,
         number of boundary vertices kept). The front film thinner than ``trim_thickness`` is
         trimmed and the area put back with ``conserve_area`` (``ale.remesh.remesh_domain``).
         MeshError when the boundary is no longer one closed loop."""

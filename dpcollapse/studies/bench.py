@@ -237,9 +237,9 @@ def linear_solve_time(cfg, comm, repeats: int = REPEATS) -> tuple[float, int]:
     from mpi4py import MPI
 
     from dpcollapse.scenes.registry import build_mesh
-    from dpcollapse.simulation import Discretization, initial_velocity
+    from dpcollapse.models.stokes.discretization import StokesDiscretization, initial_velocity
 
-    disc = Discretization(build_mesh(cfg, comm), cfg)
+    disc = StokesDiscretization(build_mesh(cfg, comm), cfg)
     try:
         flow = disc.flow
         flow.set_velocity(initial_velocity(cfg))

@@ -232,9 +232,9 @@ def run_cell(base, scene: str, cell: Cell, plan: Plan, out: Path, reference=None
     except DpcollapseError as exc:
         cell.cls, cell.exit_code = "failed", exc.exit_code
         cell.reason = " ".join(str(exc).split())[:160]
-        cell.factorizations = sim.factorizations + sim.disc.flow.solver.factorizations
+        cell.factorizations = sim.solver_counts()["flow_factorizations"]
     cell.wall_time = time.perf_counter() - t0
-    cell.fallbacks = sim.fallbacks + sim.disc.flow.solver.fallbacks
+    cell.fallbacks = sim.solver_counts()["newton_fallbacks"]
     cell.halvings = sim.halvings
     cell.short_steps = watch.short_steps
     cell.max_courant = watch.max_courant

@@ -54,7 +54,8 @@ from dpcollapse.errors import ConfigError, DpcollapseError
 from dpcollapse.reference.bagnold import (bagnold_inertial_number, bagnold_shear_rate,
                                           bagnold_surface_velocity, bagnold_velocity)
 from dpcollapse.rheology.wellposedness import criterion, high_wavenumber_growth, well_posed_window
-from dpcollapse.simulation import Simulation, rheology
+from dpcollapse.models.stokes.discretization import rheology
+from dpcollapse.simulation import Simulation
 
 __all__ = ["WellposedCase", "WellposedPlan", "FULL", "QUICK", "wellposedness_map", "classify",
            "growth_rate", "periodic_noise"]

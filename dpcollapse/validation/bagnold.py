@@ -48,7 +48,8 @@ from dpcollapse.reference.bagnold import (bagnold_inertial_number, bagnold_shear
                                           bagnold_surface_velocity, bagnold_velocity)
 from dpcollapse.rheology.mu_i import MuI
 from dpcollapse.rheology.wellposedness import criterion, fraction_ill_posed, well_posed_window
-from dpcollapse.simulation import Simulation, rheology
+from dpcollapse.models.stokes.discretization import rheology
+from dpcollapse.simulation import Simulation
 from dpcollapse.validation.plug import observed_order
 
 #: Quadrature degree of the error integrals (U is not a polynomial).

@@ -114,7 +114,7 @@ def test_periodic_layer_refused(capsys):
     assert main(["check", str(ROOT / "configs" / "plug.yaml"), "--set",
                  "numerics.linear_solver=iterative"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "not available on a periodic layer" in err[0], err
+    assert len(err) == 1 and "not available on a periodic domain" in err[0], err
 
 
 @pytest.mark.mpi

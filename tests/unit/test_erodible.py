@@ -10,7 +10,7 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.ale.remesh import remesh_domain
 from dpcollapse.config import load_config
-from dpcollapse.domain.regions import remesh_regions
+from dpcollapse.domain.region_remesh import remesh_regions
 from dpcollapse.geometry.mesher import DOMAIN, LAYER, SURFACE
 from dpcollapse.geometry.regions import carry_regions
 from dpcollapse.io.checkpoint import load_checkpoint, save_checkpoint
@@ -71,7 +71,7 @@ def test_boundaries_of_the_layer(erodible):
 
 
 def test_regions_survive_a_remesh_and_a_checkpoint(erodible, tmp_path):
-    """A remesh keeps the interface (``domain.regions``: the layer area exactly); carried by
+    """A remesh keeps the interface (``domain.region_remesh``: the layer area exactly); carried by
     centroids alone (the outer boundary remeshed) the layer, thinner than the cells, loses a
     large part of its area; a checkpoint stores the tags (the same mesh back: the same areas
     exactly); an old checkpoint without them still loads, with none."""

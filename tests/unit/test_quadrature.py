@@ -5,7 +5,7 @@ import numpy as np
 from mpi4py import MPI
 
 from dpcollapse.config import load_config
-from dpcollapse.models.stokes.discretization import Discretization
+from dpcollapse.models.stokes.discretization import StokesDiscretization
 from dpcollapse.scenes.registry import build_mesh
 from tests.helpers import ROOT
 
@@ -16,7 +16,7 @@ POLYNOMIAL = ("inertia", "pressure", "incompressibility")
 def _disc(degree, tagged=None):
     over = ["geometry.mesh_size=0.04", f"numerics.quadrature_degree={'null' if degree is None else degree}"]
     cfg = load_config(ROOT / "configs" / "rigid.yaml", over)
-    return Discretization(tagged or build_mesh(cfg, MPI.COMM_SELF), cfg), cfg
+    return StokesDiscretization(tagged or build_mesh(cfg, MPI.COMM_SELF), cfg), cfg
 
 
 def _degrees(form):

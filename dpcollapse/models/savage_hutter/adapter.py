@@ -49,14 +49,6 @@ class StepReport:
     dt: float | None = None
 
 
-class NoLinearSolver:
-    """The explicit scheme solves no linear system (the loop's solver counters stay 0)."""
-
-    factorizations = 0
-    krylov_iterations = 0
-    fallbacks = 0
-
-
 class SavageHutterFlow:
     """The Model protocol (``models.base``) for the depth-averaged state (h, q) [m, m²/s]."""
 
@@ -68,7 +60,6 @@ class SavageHutterFlow:
         self.setup = setup
         self.model, self.grid = setup.model, setup.grid
         self.phys = self.model.physics()
-        self.solver = NoLinearSolver()
         self.h = setup.h0.copy()
         self.q = np.zeros_like(self.h)
         self.outflow = 0.0       # mass that left through open ends [m²]
@@ -208,6 +199,10 @@ class SavageHutterDiscretization:
         self.out_thickness.x.array[self._dofs] = self.flow.h[self._index]
         self.out_velocity.x.array[self._dofs] = self.flow.velocity()[self._index]
         return [self.out_thickness, self.out_velocity]
+
+    def solver_counts(self) -> dict[str, int]:
+        """An explicit scheme: no linear solver, no counters."""
+        return {}
 
     def destroy(self) -> None:
         pass

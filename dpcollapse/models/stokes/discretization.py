@@ -1,6 +1,6 @@
 """Everything that lives on one mesh, and the physics built from the config.
 
-``Discretization`` bundles the regularized flow, the ALE mesh motion, the output functions
+``StokesDiscretization`` bundles the regularized flow, the ALE mesh motion, the output functions
 and the integrals (area, kinetic energy, gravity's moment) of one mesh; the time loop in
 ``simulation`` replaces it on every remesh or landing. ``StokesFactory`` is the 2D model of
 ``model.name = stokes`` as the loop sees it (``loop.ModelFactory``): its domain, its initial
@@ -74,7 +74,7 @@ def make_flow(tagged: TaggedMesh, cfg: Config, scene=None):
                                                                  flow_parameters(cfg, scene))
 
 
-class Discretization:
+class StokesDiscretization:
     """Everything that lives on one mesh: the flow, the mesh motion, outputs, integrals."""
 
     #: measures beyond the shared ones (``loop``): none
@@ -241,6 +241,9 @@ class Discretization:
         fields.extend(self.out_extra.interpolated())
         return fields
 
+    def solver_counts(self) -> dict[str, int]:
+        return self.flow.solver_counts()
+
     def destroy(self) -> None:
         self.flow.destroy()
         if self.motion is not None:
@@ -280,22 +283,22 @@ class StokesFactory:
         """Moving with ``numerics.ale``, else fixed (``domain.make_domain``)."""
         return make_domain(self.cfg)
 
-    def start(self, comm) -> Discretization:
+    def start(self, comm) -> StokesDiscretization:
         """The scene's mesh with the initial velocity."""
-        disc = Discretization(build_mesh(self.cfg, comm), self.cfg)
+        disc = StokesDiscretization(build_mesh(self.cfg, comm), self.cfg)
         disc.flow.set_velocity(initial_velocity(self.cfg))
         return disc
 
-    def rebuild(self, tagged: TaggedMesh) -> Discretization:
+    def rebuild(self, tagged: TaggedMesh) -> StokesDiscretization:
         """A discretization of a new mesh (remesh) or new facet tags (landing)."""
-        return Discretization(tagged, self.cfg)
+        return StokesDiscretization(tagged, self.cfg)
 
-    def save_checkpoint(self, path, disc: Discretization, state: dict) -> None:
+    def save_checkpoint(self, path, disc: StokesDiscretization, state: dict) -> None:
         """The mesh, the model's snapshot and the loop state (collective; rank 0 writes)."""
         save_model_checkpoint(path, disc.tagged, disc.flow.snapshot(), state)
 
-    def load_checkpoint(self, path, comm) -> tuple[Discretization, dict]:
+    def load_checkpoint(self, path, comm) -> tuple[StokesDiscretization, dict]:
         tagged, fields, state = load_model_checkpoint(path, comm)
-        disc = Discretization(tagged, self.cfg)
+        disc = StokesDiscretization(tagged, self.cfg)
         disc.flow.transfer(fields)
         return disc, state

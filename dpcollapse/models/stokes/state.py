@@ -93,6 +93,12 @@ class StokesState:
         """The flow method's own lines of ``dpcollapse check`` (none here)."""
         return []
 
+    def solver_counts(self) -> dict[str, int]:
+        """Its linear solver's counters by run.json name."""
+        return {"flow_factorizations": self.solver.factorizations,
+                "krylov_iterations": self.solver.krylov_iterations,
+                "newton_fallbacks": self.solver.fallbacks}
+
     def __init__(self, tagged: TaggedMesh, params: FlowParameters):
         self.tagged = tagged
         self.mesh = mesh = tagged.mesh

@@ -267,6 +267,9 @@ class TwoPhaseDiscretization:
         fields.extend(self.out_extra.interpolated())
         return fields
 
+    def solver_counts(self) -> dict[str, int]:
+        return self.flow.solver_counts()
+
     def destroy(self) -> None:
         self.flow.destroy()
 
