@@ -57,6 +57,8 @@ _CROSS_CHECKS = """\
 - `time.dt_min ≤ time.dt` (and `time.dt ≤ time.dt_max` when `time.adaptive`);
 - `numerics.extrapolate` not with `time.adaptive` (measured to creep instead of coming to
   rest);
+- `numerics.extrapolate` not with `time.tolerance` (measured to drive the step to ~1e-5 s:
+  the fixed point's error enters the local error estimate);
 - a periodic layer (`geometry.shape: layer`) has a fixed domain: `numerics.ale: false`;
 - `geometry.mesh_size` (and `surface_mesh_size`) smaller than the mass, min(height, top
   length) (layer: min(height, base_length)); the flank must not cross the wall (top

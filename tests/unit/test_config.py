@@ -256,3 +256,5 @@ def test_time_scheme_and_tolerance(tmp_path):
     assert "time.scheme" in _error(tmp_path, overrides=[
         "time.scheme=bdf2", "numerics.method=augmented_lagrangian"])
     assert "time.scheme" in _error(tmp_path, overrides=["time.scheme=bdf3"])
+    assert "numerics.extrapolate" in _error(tmp_path, overrides=[
+        "time.scheme=bdf2", "time.tolerance=1e-4", "time.dt_max=0.02", "numerics.extrapolate=true"])
