@@ -16,6 +16,7 @@ import subprocess
 import sys
 import textwrap
 import time
+from pathlib import Path
 
 import pytest
 
@@ -142,6 +143,27 @@ def test_sigterm_during_start_up_under_mpirun_ends_without_a_traceback(tmp_path,
 
 
 def _children(pid: int) -> list[int]:
-    """The python processes mpirun started (the ranks)."""
-    out = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout
-    return [int(p) for p in out.split()]
+    """The ranks mpirun started: its descendants running the launcher (Open MPI starts them
+    itself, MPICH's Hydra through a proxy). Read from /proc: a fresh Debian chroot has no
+    procps (pgrep)."""
+    parent = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            # "pid (comm) state ppid ...": comm may hold spaces and parentheses
+            parent[int(stat.parent.name)] = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+        except (OSError, IndexError, ValueError):
+            continue  # the process ended meanwhile
+    ranks = []
+    for child in parent:
+        ancestor = parent.get(child)
+        while ancestor is not None and ancestor != pid:
+            ancestor = parent.get(ancestor)
+        if ancestor != pid:
+            continue
+        try:
+            cmdline = (Path("/proc") / str(child) / "cmdline").read_bytes()
+        except OSError:
+            continue
+        if b"launch.py" in cmdline and b"mpirun" not in cmdline and b"mpiexec" not in cmdline:
+            ranks.append(child)
+    return ranks
