@@ -78,3 +78,23 @@ def test_error_controlled_bdf2_on_all_ranks_matches_serial(shared_tmp, comm):
         assert par["steps"] == ser["steps"] and par["rejected_steps"] == ser["rejected_steps"]
         for key in ("t", "dt", "front", "kinetic_energy"):
             np.testing.assert_allclose(d_par[key], d_ser[key], rtol=1e-6, atol=1e-12, err_msg=key)
+
+
+def test_resumed_error_controlled_bdf2_run_is_the_uninterrupted_one(tmp_path):
+    """The checkpoint carries the BDF2 history (u^{n−1}, u^{n−2}, x^{n−1}, the past steps)
+    and the controller's last error estimate and rejection count: a run stopped after step
+    10 and resumed takes the uninterrupted run's steps (Δt to round-off), rejections and
+    front."""
+    over = ["geometry.mesh_size=0.03", "time.end_time=0.1", "time.scheme=bdf2",
+            "time.tolerance=1e-3", "time.dt_max=0.012", "time.output_every=1000"]
+    full = simulation("rigid.yaml", over, tmp_path / "full").run()
+    split = simulation("rigid.yaml", over, tmp_path / "split")
+    assert split.run(observers=[lambda s: s.state.step == 10])["status"] == "stopped_by_observer"
+    resumed = simulation("rigid.yaml", over, tmp_path / "split", resume=True).run()
+    d_full = read_diagnostics(tmp_path / "full" / "diagnostics.csv")
+    d_res = read_diagnostics(tmp_path / "split" / "diagnostics.csv")
+    assert d_res["step"] == d_full["step"] and full["steps"] > 12
+    assert resumed["rejected_steps"] == full["rejected_steps"]
+    for key in ("t", "dt", "front", "kinetic_energy", "max_speed"):
+        np.testing.assert_allclose(d_res[key], d_full[key], rtol=1e-9, atol=1e-13, err_msg=key)
+    assert resumed["front"] == pytest.approx(full["front"], rel=1e-10)
