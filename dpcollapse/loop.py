@@ -125,6 +125,9 @@ class LoopState:
     #: the largest kinetic energy so far [J/m] (the rest rule time.rest_energy_fraction;
     #: in the checkpoint so that a resumed run stops where the uninterrupted one does)
     kinetic_energy_peak: float | None = None
+    #: the error-controlled step's controller (``StepController.record``: its last estimate
+    #: and rejections), so that a resumed run takes the uninterrupted run's steps
+    step_controller: dict | None = None
     #: entries of a checkpoint this version does not know, kept and written back
     extra: dict = field(default_factory=dict)
 

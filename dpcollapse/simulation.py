@@ -194,6 +194,8 @@ class Simulation:
         self.halvings = 0   # step attempts that failed and were retried with dt/2
         #: the error-controlled step (time.tolerance), else None
         self.controller = StepController(cfg.time.tolerance) if cfg.time.tolerance else None
+        if self.controller is not None and self.state.step_controller is not None:
+            self.controller.restore(self.state.step_controller)   # resumed
         self.dt_limit = math.inf
         self.courant = 0.0  # Courant number Δt·max_K |uⁿ|/h_K of the last step
         self.wall0 = time.perf_counter()
@@ -224,6 +226,8 @@ class Simulation:
         if self.state.checkpoint_step == self.state.step:
             return
         self.state.checkpoint_step = self.state.step
+        if self.controller is not None:
+            self.state.step_controller = self.controller.record()
         t0 = time.perf_counter()
         # rank 0 writes it: every rank shares the outcome (a full disk ends them together)
         parallel.agree(self.comm, lambda: self.checkpoint_export.write(

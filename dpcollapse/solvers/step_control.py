@@ -56,6 +56,15 @@ class StepController:
         """The step to retry after a rejection of step ``dt`` with local error ``error``."""
         return dt * max(SHRINK, min(0.9, SAFETY * (self.tolerance / error) ** (1.0 / ORDER)))
 
+    def record(self) -> dict:
+        """Its state for a checkpoint (JSON): the last estimate and the rejections so far."""
+        return {"previous_error": self.previous_error, "rejected": self.rejected}
+
+    def restore(self, record: dict) -> None:
+        """The state of a checkpoint (``record``): a resumed run steps as the uninterrupted one."""
+        self.previous_error = record["previous_error"]
+        self.rejected = int(record["rejected"])
+
     def forget(self) -> None:
         """Drop the previous estimate (the history was lost: remesh)."""
         self.previous_error = None

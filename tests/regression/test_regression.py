@@ -76,12 +76,12 @@ def test_short_run_on_all_ranks_matches_stored_values(name, shared_tmp, comm):
 
 @pytest.mark.slow
 def test_full_rigid_run_matches_stored_values(tmp_path):
-    """configs/rigid.yaml to rest (~90 s serial): steps, remeshes, front and height at rest
-    within the measured band."""
+    """configs/rigid.yaml to rest (BDF2 + time.tolerance, ~35 s serial): steps, remeshes, front
+    and height at rest within the measured band."""
     got = run_case("rigid_full", tmp_path, MPI.COMM_SELF)
     _compare(got, "rigid_full")
     # and what makes it a physical result (this test replaces tests/system/test_collapse.py's
-    # test_full_rigid_case_reaches_rest, so that the 90 s run is done once)
+    # test_full_rigid_case_reaches_rest, so that the full run is done once)
     d = read_diagnostics(tmp_path / "diagnostics.csv")
     assert got["status"] == "at_rest"
     assert abs(d["area"][-1] - d["area"][0]) <= 5e-3 * d["area"][0]

@@ -13,11 +13,13 @@ from mpi4py import MPI
 from dpcollapse.config import load_config
 from dpcollapse.io.diagnostics import read_diagnostics
 from dpcollapse.simulation import Simulation
-from tests.helpers import ROOT, clean_env, dpcollapse_cmd, paraview_summaries, run_cli, simulation
+from tests.helpers import RIGID_BDF1, ROOT, clean_env, dpcollapse_cmd, paraview_summaries, run_cli, simulation
 
-#: A coarse rigid-bed collapse that reaches its first remesh (≈ t = 0.096 s at 2 cm).
+#: A coarse rigid-bed collapse that reaches its first remesh (≈ t = 0.096 s at 2 cm), at
+#: the fixed 1 ms step (BDF1) these tests were written for; the error-controlled BDF2 step of
+#: configs/rigid.yaml: tests/system/test_time_scheme.py and tests/regression.
 SHORT = ["geometry.mesh_size=0.02", "time.end_time=0.12", "time.output_every=30",
-         "time.checkpoint_every=40"]
+         "time.checkpoint_every=40", *RIGID_BDF1]
 
 
 def _run(config, overrides, run_dir, comm=MPI.COMM_WORLD, resume=False):
@@ -70,7 +72,8 @@ def test_mpi_matches_serial(shared_tmp, comm):
 
 def test_resume_continues_the_run(tmp_path):
     """Stopping at a checkpoint and resuming gives the uninterrupted run's diagnostics."""
-    over = ["geometry.mesh_size=0.03", "time.output_every=10", "time.checkpoint_every=10"]
+    over = ["geometry.mesh_size=0.03", "time.output_every=10", "time.checkpoint_every=10",
+            *RIGID_BDF1]   # the end time cuts no step (error-controlled: test_time_scheme)
     _, full = _run("rigid.yaml", over + ["time.end_time=0.04"], tmp_path / "full")
     _run("rigid.yaml", over + ["time.end_time=0.02"], tmp_path / "split")
     _, resumed = _run("rigid.yaml", over + ["time.end_time=0.04"], tmp_path / "split", resume=True)
@@ -86,6 +89,7 @@ def test_resume_continues_the_run(tmp_path):
 def test_sigterm_leaves_a_valid_resumable_run(tmp_path):
     """A run stopped by SIGTERM exits 130 with one line; its files are valid; --resume ends it."""
     args = ["run", ROOT / "configs/rigid.yaml", "--out", tmp_path, "--quiet",
+            *[a for o in RIGID_BDF1 for a in ("--set", o)],
             "--set", "geometry.mesh_size=0.03", "--set", "time.end_time=1.0",
             "--set", "time.checkpoint_every=5", "--set", "time.output_every=5"]
     proc = subprocess.Popen(dpcollapse_cmd() + [str(a) for a in args], env=clean_env(), cwd=ROOT,
@@ -164,7 +168,7 @@ def test_extrapolated_start_saves_iterations(tmp_path):
     fixed-point iterations (measured to rest at 2 cm: 1.59 against 2.46 per step) for the
     same solution up to the fixed-point tolerance."""
     over = ["geometry.mesh_size=0.03", "time.end_time=0.1", "time.output_every=1000",
-            "time.checkpoint_every=1000"]
+            "time.checkpoint_every=1000", *RIGID_BDF1]   # refused with time.tolerance
     s_ref, d_ref = _run("rigid.yaml", over, tmp_path / "ref")
     s_new, d_new = _run("rigid.yaml", over + ["numerics.extrapolate=true"], tmp_path / "extrapolated")
     assert s_new["flow_solves"] < 0.8 * s_ref["flow_solves"], (s_new["flow_solves"], s_ref["flow_solves"])

@@ -16,11 +16,11 @@ import pytest
 from dpcollapse.cli import main
 from dpcollapse.io.checkpoint import choose_checkpoint, previous_path
 from dpcollapse.io.diagnostics import read_diagnostics
-from tests.helpers import ROOT, run_cli
+from tests.helpers import RIGID_BDF1, ROOT, run_cli
 
 RIGID = str(ROOT / "configs" / "rigid.yaml")
 TINY = ["--set", "geometry.mesh_size=0.04", "--set", "time.output_every=1",
-        "--set", "time.checkpoint_every=2"]
+        "--set", "time.checkpoint_every=2", *[a for o in RIGID_BDF1 for a in ("--set", o)]]
 
 
 def _one_error_line(err: str) -> str:

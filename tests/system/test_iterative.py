@@ -16,7 +16,7 @@ from dpcollapse.scenes.registry import build_mesh
 from dpcollapse.simulation import Simulation
 from dpcollapse.solvers.iterative import BlockSolver
 from dpcollapse.solvers.linear import DirectSolver
-from tests.helpers import ROOT
+from tests.helpers import RIGID_BDF1, ROOT
 
 RIGID = ROOT / "configs" / "rigid.yaml"
 TINY = ["geometry.mesh_size=0.04", "time.end_time=0.005", "time.output_every=1000",
@@ -25,12 +25,12 @@ TINY = ["geometry.mesh_size=0.04", "time.end_time=0.005", "time.output_every=100
 
 def _flows(overrides, solvers=("mumps", "iterative"), comm=MPI.COMM_WORLD):
     """Flows with the given linear solvers on the same 4 cm mesh, at rest."""
-    cfg = load_config(RIGID, ["geometry.mesh_size=0.04"] + list(overrides))
+    cfg = load_config(RIGID, ["geometry.mesh_size=0.04", *RIGID_BDF1] + list(overrides))
     tagged = build_mesh(cfg, comm)
     flows = []
     for solver in solvers:
-        c = load_config(RIGID, ["geometry.mesh_size=0.04", f"numerics.linear_solver={solver}"]
-                        + list(overrides))
+        c = load_config(RIGID, ["geometry.mesh_size=0.04", *RIGID_BDF1,   # solved w/o set_step
+                                f"numerics.linear_solver={solver}"] + list(overrides))
         flow = RegularizedFlow(tagged, flow_parameters(c), picard_settings(c))
         flow.set_velocity(initial_velocity(c))
         flows.append(flow)

@@ -27,12 +27,16 @@ RIGID = ROOT / "configs" / "rigid.yaml"
 PY = [sys.executable, "-m", "dpcollapse.cli"]
 
 # Three short cases (~1 s of time loop each at 4 cm); the third cannot converge in one
-# fixed-point iteration and may not halve its step (dt_min = dt): a genuine exit 3.
+# fixed-point iteration and may not halve its step (dt_min = dt): a genuine exit 3. At the
+# fixed 1 ms step (BDF1, tests.helpers.RIGID_BDF1): 20 steps, a step count per end time.
 TINY = f"""
 base: {RIGID}
 set:
   geometry.mesh_size: 0.04
   time.end_time: 0.02
+  time.scheme: bdf1
+  time.tolerance: null
+  time.dt_max: 1.5e-3
 cases:
   - {{material.friction_angle: 25.5}}
   - {{material.friction_angle: 30}}

@@ -20,7 +20,7 @@ TIGHT = ["numerics.nonlinear_rtol=1e-7", "numerics.nonlinear_atol=1e-10"]
 def _final(tmp_path, scheme, dt):
     run_dir = tmp_path / f"{scheme}_{dt:g}"
     sim = simulation("rigid.yaml", ["geometry.mesh_size=0.03", f"time.end_time={END}",
-                                    f"time.dt={dt}", f"time.scheme={scheme}",
+                                    f"time.dt={dt}", f"time.scheme={scheme}", "time.tolerance=null",
                                     "time.output_every=1000", *TIGHT], run_dir)
     summary = sim.run()
     assert summary["status"] == "end_time" and summary["remeshes"] == 0
@@ -78,3 +78,46 @@ def test_error_controlled_bdf2_on_all_ranks_matches_serial(shared_tmp, comm):
         assert par["steps"] == ser["steps"] and par["rejected_steps"] == ser["rejected_steps"]
         for key in ("t", "dt", "front", "kinetic_energy"):
             np.testing.assert_allclose(d_par[key], d_ser[key], rtol=1e-6, atol=1e-12, err_msg=key)
+
+
+def test_resumed_error_controlled_bdf2_run_is_the_uninterrupted_one(tmp_path):
+    """The checkpoint carries the BDF2 history (u^{n−1}, u^{n−2}, x^{n−1}, the past steps)
+    and the controller's last error estimate and rejection count: a run stopped after step
+    10 and resumed takes the uninterrupted run's steps (Δt to round-off), rejections and
+    front."""
+    over = ["geometry.mesh_size=0.03", "time.end_time=0.1", "time.scheme=bdf2",
+            "time.tolerance=1e-3", "time.dt_max=0.012", "time.output_every=1000"]
+    full = simulation("rigid.yaml", over, tmp_path / "full").run()
+    split = simulation("rigid.yaml", over, tmp_path / "split")
+    assert split.run(observers=[lambda s: s.state.step == 10])["status"] == "stopped_by_observer"
+    resumed = simulation("rigid.yaml", over, tmp_path / "split", resume=True).run()
+    d_full = read_diagnostics(tmp_path / "full" / "diagnostics.csv")
+    d_res = read_diagnostics(tmp_path / "split" / "diagnostics.csv")
+    assert d_res["step"] == d_full["step"] and full["steps"] > 12
+    assert resumed["rejected_steps"] == full["rejected_steps"]
+    for key in ("t", "dt", "front", "kinetic_energy", "max_speed"):
+        np.testing.assert_allclose(d_res[key], d_full[key], rtol=1e-9, atol=1e-13, err_msg=key)
+    assert resumed["front"] == pytest.approx(full["front"], rel=1e-10)
+
+
+@pytest.mark.mpi
+def test_bdf2_checkpoint_of_one_rank_resumes_on_all_ranks(shared_tmp, comm):
+    """The history is stored cell by cell on the global mesh, as u and p are: a serial run's
+    checkpoint after step 10, resumed on all ranks, takes the serial uninterrupted run's
+    steps (Δt and front as a parallel run matches a serial one)."""
+    from mpi4py import MPI
+
+    over = ["geometry.mesh_size=0.03", "time.end_time=0.1", "time.scheme=bdf2",
+            "time.tolerance=1e-3", "time.dt_max=0.012", "time.output_every=1000"]
+    if comm.rank == 0:
+        simulation("rigid.yaml", over, shared_tmp / "full", comm=MPI.COMM_SELF).run()
+        split = simulation("rigid.yaml", over, shared_tmp / "split", comm=MPI.COMM_SELF)
+        split.run(observers=[lambda s: s.state.step == 10])
+    comm.barrier()
+    simulation("rigid.yaml", over, shared_tmp / "split", comm=comm, resume=True).run()
+    if comm.rank == 0:
+        d_full = read_diagnostics(shared_tmp / "full" / "diagnostics.csv")
+        d_res = read_diagnostics(shared_tmp / "split" / "diagnostics.csv")
+        assert d_res["step"] == d_full["step"]
+        for key in ("t", "dt", "front", "kinetic_energy"):
+            np.testing.assert_allclose(d_res[key], d_full[key], rtol=1e-6, atol=1e-12, err_msg=key)

@@ -7,11 +7,12 @@ import pytest
 from dpcollapse.ale.quality import courant_rate
 from dpcollapse.io.diagnostics import read_diagnostics
 from dpcollapse.simulation import FEW_ITERATIONS, STEP_GROWTH
-from tests.helpers import simulation
+from tests.helpers import RIGID_BDF1, simulation
 
 
 def _sim(config, overrides, run_dir, resume=False):
-    return simulation(config, overrides, run_dir, resume=resume)
+    """The fixed and the iteration-adaptive step (time.adaptive refuses bdf2's tolerance)."""
+    return simulation(config, RIGID_BDF1 + list(overrides), run_dir, resume=resume)
 
 
 def test_courant_rate_hand_values():

@@ -1,6 +1,8 @@
 """Variable-step BDF2 coefficients, the midpoint and predictor extrapolations, Milne's
 error factor (``solvers.bdf``) and the PI step controller (``solvers.step_control``)."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -91,3 +93,25 @@ def test_controller_accepts_rejects_and_bounds():
     # on target with a steady error the step settles at SAFETY × itself
     c.forget()
     assert c.next_step(1.0, 1e-3) == pytest.approx(0.9)
+
+
+def test_controller_and_history_records_restore_their_state():
+    """What a checkpoint stores: a restored controller proposes the same next step and
+    counts on from the same rejections; a restored history gives the same BDF2 quantities."""
+    c = StepController(tolerance=1e-3)
+    c.accept(2e-3)
+    c.next_step(1.0, 4e-4)
+    restored = StepController(tolerance=1e-3)
+    restored.restore(json.loads(json.dumps(c.record())))
+    assert restored.rejected == 1
+    assert restored.next_step(0.5, 7e-4) == c.next_step(0.5, 7e-4)
+    x = lambda t: np.array([[t ** 2, 2.0 * t]])  # noqa: E731
+    h = TimeHistory(x(0.0))
+    for k, t in enumerate((0.1, 0.25, 0.33)):
+        h.push(np.array([k, -k], dtype=float), t - (0.0, 0.1, 0.25)[k], x(t))
+    again = TimeHistory(x(0.33))
+    again.restore(json.loads(json.dumps(h.record())), h.velocities, h.positions[1])
+    u = np.array([3.0, 1.0])
+    assert again.local_error(u, u, 0.1) == pytest.approx(h.local_error(u, u, 0.1), rel=1e-15)
+    assert again.mesh_velocity(x(0.43), 0.1) == pytest.approx(h.mesh_velocity(x(0.43), 0.1), rel=1e-15)
+    assert np.all(again.effective_old(u, 0.1) == h.effective_old(u, 0.1))

@@ -9,12 +9,14 @@ from mpi4py import MPI
 
 from dpcollapse.io.diagnostics import read_diagnostics
 from dpcollapse.loop import Events, LoopState
-from tests.helpers import ROOT, simulation
+from tests.helpers import RIGID_BDF1, ROOT, simulation
 
 #: A checkpoint written by the code before the redesign (commit d1fd579, dict state) at
 #: step 20 of this run, with its diagnostics.
 OLD_RUN = ROOT / "tests/data/checkpoint_d1fd579"
-OVERRIDES = ["geometry.mesh_size=0.04", "time.checkpoint_every=10", "time.output_every=10"]
+#: the old checkpoint's run: rigid.yaml's fixed 1 ms BDF1 step of that time
+OVERRIDES = ["geometry.mesh_size=0.04", "time.checkpoint_every=10", "time.output_every=10",
+             *RIGID_BDF1]
 
 
 def test_state_round_trip_leaves_out_what_is_unset():
@@ -57,7 +59,7 @@ def test_events_in_order_and_a_subscriber_stops_the_run(tmp_path):
     events.subscribe("output", lambda sim, t: seen.append(("output", round(t, 9))))
     events.subscribe("remesh", lambda sim, info: seen.append(("remesh", info["reason"][:9])))
     events.subscribe("step_accepted", lambda sim, row: seen.append(("step", row["step"])) or row["step"] == 12)
-    summary = simulation("rigid.yaml", ["geometry.mesh_size=0.04", "time.end_time=0.05",
+    summary = simulation("rigid.yaml", [*RIGID_BDF1, "geometry.mesh_size=0.04", "time.end_time=0.05",
                                         "numerics.remesh_min_angle=59", "time.output_every=10"],
                          tmp_path, comm=MPI.COMM_SELF, events=events).run()
     assert summary["status"] == "stopped_by_observer" and summary["steps"] == 12

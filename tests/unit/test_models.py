@@ -12,7 +12,7 @@ from dpcollapse.models.stokes.augmented import AugmentedLagrangianFlow
 from dpcollapse.models.stokes.regularized import RegularizedFlow
 from dpcollapse.models.stokes.state import StokesState
 from dpcollapse.scenes.registry import build_mesh
-from tests.helpers import ROOT
+from tests.helpers import RIGID_BDF1, ROOT
 
 
 def test_registry_finds_the_model_of_each_method():
@@ -40,7 +40,7 @@ def test_snapshot_transfer_round_trip_on_the_same_mesh(method):
     same uⁿ and pⁿ (to round-off) and multipliers to 1e-5 of their largest value (the DG
     values are evaluated 1e-6 of the way into each cell, ``INSIDE_SHIFT``: measured
     2.8e-3 Pa on σ' of 1e3–1e4 Pa here)."""
-    cfg = load_config(ROOT / "configs/rigid.yaml", ["geometry.mesh_size=0.05",
+    cfg = load_config(ROOT / "configs/rigid.yaml", ["geometry.mesh_size=0.05", *RIGID_BDF1,
                                                     f"numerics.method={method}"])
     tagged = build_mesh(cfg, MPI.COMM_SELF)
     a = make_flow(tagged, cfg)

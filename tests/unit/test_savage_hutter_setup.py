@@ -10,10 +10,10 @@ from dpcollapse.config import load_config
 from dpcollapse.models.registry import model_factories
 from dpcollapse.models.savage_hutter.friction import CoulombFriction, MuIFriction
 from dpcollapse.models.savage_hutter.setup import basal_friction, domain_end, setup_from_config
-from tests.helpers import ROOT
+from tests.helpers import RIGID_BDF1, ROOT
 
 RIGID = ROOT / "configs" / "rigid.yaml"
-SH = ["model.name=savage_hutter"]
+SH = ["model.name=savage_hutter", *RIGID_BDF1]   # bdf2 is refused with it
 
 
 def _cfg(*overrides):

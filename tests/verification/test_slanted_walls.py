@@ -29,7 +29,7 @@ from dpcollapse.models.stokes.discretization import flow_parameters
 from dpcollapse.models.registry import model_class
 from dpcollapse.scenes.base import SOLID
 from dpcollapse.scenes.registry import scene as make_scene
-from tests.helpers import ROOT
+from tests.helpers import RIGID_BDF1, ROOT
 
 PHI = math.radians(35.0)
 R = np.array([[math.cos(PHI), -math.sin(PHI)], [math.sin(PHI), math.cos(PHI)]])
@@ -37,7 +37,7 @@ R = np.array([[math.cos(PHI), -math.sin(PHI)], [math.sin(PHI), math.cos(PHI)]])
 
 def first_step(method: str, rotate: bool):
     """(velocity dofs (n, 2) in the unrotated frame, the model, its parameters)."""
-    cfg = load_config(ROOT / "configs/rigid.yaml", ["geometry.mesh_size=0.03",
+    cfg = load_config(ROOT / "configs/rigid.yaml", ["geometry.mesh_size=0.03", *RIGID_BDF1,
                                                    f"numerics.method={method}"])
     scene = make_scene(cfg)
     tagged = scene.mesh(MPI.COMM_WORLD)

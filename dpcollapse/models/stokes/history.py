@@ -3,9 +3,10 @@
 ``time.scheme: bdf2`` (``solvers.bdf``): the velocities u^{n−1}, u^{n−2} of the last
 accepted steps (dof values of the same nodes, which move with the mesh: the values along
 the node trajectories), their steps, and the mesh-velocity dof positions x^n, x^{n−1}.
-The history starts empty on a new mesh (start, remesh, checkpoint resume): the first step
-there is BDF1 with the mesh moved by w(uⁿ), then BDF2. A landing rebuild (same mesh, same
-dofs, new facet tags) copies it. The error estimate waits until the three past velocities it
+The history starts empty on a new mesh (start, remesh): the first step there is BDF1 with
+the mesh moved by w(uⁿ), then BDF2. A landing rebuild (same mesh, same dofs, new facet tags)
+copies it; a checkpoint stores it (``record`` and the fields of ``models.stokes.state``), so
+a resumed run takes the uninterrupted run's steps. The error estimate waits until the three past velocities it
 uses were all solved on the current mesh with the current conditions (three steps after a
 remesh or a landing): a transferred field's interpolation error, or the jump of the nodes
 that landed (u·n = 0 from then on), is no time-discretization error.
@@ -45,6 +46,21 @@ class TimeHistory:
         self.velocities = [v.copy() for v in other.velocities]
         self.steps = list(other.steps)
         self.positions = [x.copy() for x in other.positions]
+
+    def record(self) -> dict:
+        """The history's numbers for a checkpoint (JSON): past steps and the solved count
+        (the arrays go in as fields of the mesh)."""
+        return {"steps": list(self.steps), "solved": self.solved}
+
+    def restore(self, record: dict, velocities: list[np.ndarray],
+                previous_positions: np.ndarray | None) -> None:
+        """The history of a checkpoint on its own mesh: ``record`` (``record``), u^{n−1},
+        u^{n−2} as far as stored and x^{n−1} (None: not stored)."""
+        self.steps = [float(dt) for dt in record["steps"]]
+        self.solved = int(record["solved"])
+        self.velocities = [u.copy() for u in velocities]
+        if previous_positions is not None:
+            self.positions = [self.positions[0], previous_positions.copy()]
 
     def coefficients(self, dt: float) -> tuple[float, float, float]:
         """BDF2's (α₀, α₁, α₂) for a step ``dt`` (BDF1 without history)."""

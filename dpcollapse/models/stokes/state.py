@@ -307,6 +307,24 @@ class StokesState:
         u, p = snapshot(self)
         return {"velocity": u, "pressure": p, **snapshot_multipliers(self)}
 
+    def checkpoint_fields(self) -> dict[str, CellwiseField]:
+        """``snapshot`` plus, under BDF2, the history of this mesh (``snapshot_history``):
+        what a checkpoint stores (a remesh carries the snapshot only)."""
+        fields = self.snapshot()
+        if self.scheme == "bdf2":
+            fields.update(snapshot_history(self))
+        return fields
+
+    def history_record(self) -> dict | None:
+        """The BDF2 history's numbers for the checkpoint's state (None under BDF1)."""
+        return self.history.record() if self.scheme == "bdf2" else None
+
+    def restore_history(self, fields: dict[str, CellwiseField], record: dict | None) -> None:
+        """The BDF2 history of a checkpoint of this mesh (``checkpoint_fields``,
+        ``history_record``); without one (BDF1, or an older checkpoint) it stays empty."""
+        if self.scheme == "bdf2" and record is not None:
+            load_history(self, fields, record)
+
     def transfer(self, fields: dict[str, CellwiseField]) -> float:
         """Set the state from ``snapshot`` fields of another mesh (evaluated at this mesh's
         dofs, extrapolated outside the old domain); the largest extrapolation distance [m].
@@ -345,6 +363,36 @@ def load_state(flow, u_field: CellwiseField, p_field: CellwiseField) -> float:
     flow.iterate.x.array[flow.velocity_dofs] = flow.u_old.x.array
     flow.solution.x.array[:] = flow.iterate.x.array
     return flow.comm.allreduce(float(outside), op=MPI.MAX)
+
+
+#: Checkpoint names of the BDF2 history: u^{n−1}, u^{n−2} (P2) and x^{n−1} − xⁿ (P1)
+HISTORY_VELOCITIES = ("history_velocity_1", "history_velocity_2")
+HISTORY_DISPLACEMENT = "history_mesh_displacement"
+
+
+def snapshot_history(flow) -> dict[str, CellwiseField]:
+    """The BDF2 history of ``flow`` (``models.stokes.history``) gathered on every rank: the
+    past velocities on P2 and the displacement x^{n−1} − xⁿ of the mesh-velocity (P1) dofs."""
+    h, comm = flow.history, flow.comm
+    fields = {name: concatenate(comm.allgather(_cellwise(flow.V, u, 2, 2)))
+              for name, u in zip(HISTORY_VELOCITIES, h.velocities)}
+    if len(h.positions) > 1:
+        back = (h.positions[1] - h.positions[0]).ravel()
+        fields[HISTORY_DISPLACEMENT] = concatenate(comm.allgather(_cellwise(flow.Vw, back, 2, 1)))
+    return fields
+
+
+def load_history(flow, fields: dict[str, CellwiseField], record: dict) -> None:
+    """Set the BDF2 history of ``flow`` from ``snapshot_history`` fields of the same mesh
+    and the history's ``record`` (exact to round-off: the fields are evaluated at their own
+    nodes)."""
+    xu = flow.V.tabulate_dof_coordinates()[:, :2]
+    velocities = [fields[name].evaluate(xu).ravel() for name in HISTORY_VELOCITIES if name in fields]
+    previous = None
+    if HISTORY_DISPLACEMENT in fields:
+        x = flow._dof_positions()
+        previous = x + fields[HISTORY_DISPLACEMENT].evaluate(x)
+    flow.history.restore(record, velocities, previous)
 
 
 #: Discontinuous fields are evaluated this fraction of the way from each dof towards its
