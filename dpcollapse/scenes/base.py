@@ -32,7 +32,6 @@ import numpy as np
 from dpcollapse.geometry.layer import structured_rectangle
 from dpcollapse.geometry.mesher import (
     BED,
-    LEFT,
     RIGHT,
     SURFACE,
     WALL,

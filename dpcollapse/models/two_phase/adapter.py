@@ -100,6 +100,13 @@ def _shortest_edges(triangles: np.ndarray) -> np.ndarray:
     return np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).min(axis=1)
 
 
+#: a bin's measures (the half vessel; Q for the whole symmetric silo): the discharge rate Q
+#: [kg/(m s)] = 2 ρ_s (volume through the orifice in the step)/Δt, the granular area that has
+#: left [m²], the fill height floor(x_w) + ∫ c dy at the side wall's strip x_w [m], the
+#: granular mass in the whole bin 2 ρ_s ∫ c dx [kg/m]
+BIN_MEASURES = ("discharge_rate", "outflow_area", "fill_height", "bin_mass")
+
+
 class TwoPhaseDiscretization:
     """The two-phase flow on the box, its measures and output fields (``loop``)."""
 
@@ -126,6 +133,10 @@ class TwoPhaseDiscretization:
         self.thick_floor = max(self.film_threshold, floor)
         if self.layer:
             self.extra_measures = type(self).extra_measures + LAYER_MEASURES
+        self.bin = vessel.floor is not None
+        self._discharge, self._last_outflow = [], None   # (Δt, Q) of the accepted steps
+        if self.bin:
+            self.extra_measures = type(self).extra_measures + BIN_MEASURES
         # columns for h(x) = ∫ c dy: strips of the structured mesh's width along x (on the
         # adaptive mesh: of min_cell)
         self.nx = max(2, round(vessel.length / fine))
@@ -136,7 +147,8 @@ class TwoPhaseDiscretization:
         self._xmax = tri[:, :, 0].max(axis=1)
         self._above = tri[:, :, 1].mean(axis=1) > floor    # cells counted by the mass front
         self._volume = self.fraction.volume[self._cells] if len(self._cells) else np.zeros(0)
-        if is_adaptive(cfg):   # |K ∩ strip_j| (exact: the cells straddle the strips)
+        if is_adaptive(cfg) or vessel.box is None:   # |K ∩ strip_j| (exact: the cells straddle
+            # the strips of an unstructured mesh)
             self._strip_cell, self._bin, self._strip_area = strip_overlaps(tri, self.dx_bin, self.nx)
         else:                  # each structured cell lies in the strip of its centroid
             self._strip_cell, self._strip_area = np.arange(len(tri)), self._volume
@@ -230,6 +242,8 @@ class TwoPhaseDiscretization:
         speed = self._granular_speed()
         lo, hi = self.fraction.bounds()
         out = self.layer.measures() if self.layer else {}
+        if self.bin:
+            out = out | self._bin_measures(h)
         return out | {
             "front": self.comm.allreduce(front, op=MPI.MAX),
             "thick_front": float((thick[-1] + 1) * self.dx_bin) if len(thick) else -math.inf,
@@ -246,6 +260,40 @@ class TwoPhaseDiscretization:
             "mixture_kinetic_energy": self.comm.allreduce(
                 fem.assemble_scalar(self._kinetic_mixture), op=MPI.SUM),
         }
+
+    def _bin_measures(self, h: np.ndarray) -> dict:
+        """The bin's measures (``BIN_MEASURES``) and ``emptied``: less than
+        ``geometry.empty_fraction`` of the initial material left in the bin."""
+        rho = self.cfg.material.density
+        volume, dt = self.fraction.step_outflow
+        area = self.area()
+        if dt > 0 and volume != self._last_outflow:
+            self._discharge.append((dt, 2.0 * rho * volume / dt))
+        self._last_outflow = volume
+        left = self.fraction.outflow_volume
+        wall_x = (self.nx - 0.5) * self.dx_bin
+        initial = area + left
+        return {"discharge_rate": 2.0 * rho * volume / dt if dt > 0 else 0.0,
+                "outflow_area": left,
+                "fill_height": float(self.vessel.floor(wall_x)) + float(h[-1]),
+                "bin_mass": 2.0 * rho * area,
+                "emptied": initial > 0 and area < self.cfg.geometry.empty_fraction * initial}
+
+    def summary_measures(self) -> dict:
+        """run.json's steady discharge (a bin): the mean and relative standard deviation of Q
+        over the window from the first step where Q reaches 95 % of its largest value (the
+        discharge set up) to the end (or the last step with Q > 0); NaN without outflow."""
+        if not self.bin or not self._discharge:
+            return {}
+        dt, q = np.array(self._discharge).T
+        t = np.cumsum(dt)
+        start = int(np.argmax(q >= 0.95 * q.max()))
+        stop = int(np.nonzero(q > 0)[0][-1]) + 1
+        window = q[start:stop]
+        mean = float(window.mean()) if len(window) else math.nan
+        return {"discharge_steady": mean,
+                "discharge_spread": float(window.std() / mean) if len(window) and mean else math.nan,
+                "discharge_window": [float(t[start] - dt[start]), float(t[stop - 1])]}
 
     def output_functions(self) -> list:
         """c (DG0), u and p (P1), c_L ("layer_fraction", DG0) on the erodible layer, and the
@@ -286,9 +334,9 @@ class TwoPhaseFactory:
         from dpcollapse.config import MEMORY_PER_CELL, box_cells
         from dpcollapse.models.describe import lines_2d
 
-        m = cfg.model
-        cells = box_cells(m.box_length, m.box_height, cfg.geometry.mesh_size)
-        return lines_2d(cfg, [f"two-phase box {m.box_length:g} x {m.box_height:g} m: about "
+        vessel = container(cfg)
+        cells = box_cells(vessel.length, vessel.height, cfg.geometry.mesh_size)
+        return lines_2d(cfg, [f"two-phase vessel {vessel.length:g} x {vessel.height:g} m: about "
                               f"{cells:.3g} cells (about {cells * MEMORY_PER_CELL / 1e6:.3g} MB)"])
 
     def domain(self) -> FixedDomain | AdaptiveBox:
