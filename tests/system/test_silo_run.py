@@ -28,3 +28,14 @@ def test_tiny_silo_discharges_and_conserves_its_material(tmp_path):
     dt, q = np.asarray(columns["dt"]), np.asarray(columns["discharge_rate"])
     lost = columns["bin_mass"][0] - columns["bin_mass"][-1]
     assert abs(lost - float(np.sum(q[1:] * dt[1:]))) < 1e-6 * columns["bin_mass"][0]
+
+
+def test_a_bin_that_has_discharged_ends_emptied(tmp_path):
+    """With geometry.empty_fraction = 0.99 the run ends (status emptied, not a failure) as
+    soon as 1 % of the material has left, before the end time."""
+    summary = simulation("silo.yaml", TINY + ["geometry.empty_fraction=0.99"], tmp_path,
+                         comm=MPI.COMM_SELF).run()
+    assert summary["status"] == "emptied" and summary["t"] < 0.04
+    assert summary["outflow_area"] > 0.01 * summary["area"]
+    assert abs(summary["area_drift"]) < 1e-6
+    assert summary["discharge_steady"] > 0
