@@ -374,7 +374,11 @@ class TwoPhaseFactory:
         return TwoPhaseDiscretization(tagged, self.cfg, self.vessel)
 
     def save_checkpoint(self, path, disc: TwoPhaseDiscretization, state: dict) -> None:
-        """The mesh, uⁿ, pⁿ, cⁿ and the loop state (collective; rank 0 writes)."""
+        """The mesh, uⁿ, pⁿ, cⁿ and the loop state (collective; rank 0 writes); a bin's
+        outflow so far and its (Δt, Q) history with the loop state."""
+        if disc.bin:
+            state = state | {"outflow_area": disc.fraction.outflow_volume,
+                             "discharge_history": [list(x) for x in disc._discharge]}
         save_model_checkpoint(path, disc.tagged, disc.flow.snapshot(), state)
 
     def load_checkpoint(self, path, comm) -> tuple[TwoPhaseDiscretization, dict]:
@@ -384,4 +388,7 @@ class TwoPhaseFactory:
         disc = TwoPhaseDiscretization(tagged if is_adaptive(self.cfg) else self._box(comm), self.cfg,
                                       self.vessel)
         disc.flow.transfer(fields)
+        if disc.bin:
+            disc.fraction.outflow_volume = float(state.get("outflow_area", 0.0))
+            disc._discharge = [tuple(x) for x in state.get("discharge_history", [])]
         return disc, state
