@@ -140,21 +140,25 @@ class RegularizedFlow(StokesState):
     def iterative_solver(self, rtol: float, max_iterations: int,
                          prefix: str = "dpc_flow_") -> BlockSolver:
         """FGMRES + Schur fieldsplit (``solvers.iterative``) with its two pressure operators
-        on the current iterate: the mass matrix weighted by 2/ν (ν the secant viscosity) and
+        on the current iterate: the mass matrix weighted by 1/η (``schur_viscosity``) and
         the Laplacian weighted by Δt/ρ, with p = 0 on the free surface."""
         if self.params.periodic_slave is not None:
             raise ValueError("linear_solver iterative: not available on a periodic layer")
         _, p = ufl.TrialFunctions(self.W)
         _, q = ufl.TestFunctions(self.W)
-        u_k, p_k = ufl.split(self.iterate)
-        nu = self.params.rheology.secant_viscosity(u_k, p_k, self.epsilon)
         dx = ufl.Measure("dx", domain=self.mesh, metadata={"quadrature_degree": 2})
-        mass = 2.0 / nu * p * q * dx
+        mass = 1.0 / self.schur_viscosity() * p * q * dx
         laplacian = self.dt / self._rho * ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx
         bcs = [zero_dirichlet(self.W.sub(1), self.tagged.facet_tags, b.tag)
                for b in self.params.of_kind(BoundaryKind.FREE_SURFACE)]
         return BlockSolver(self.comm, self.W, self.velocity_dofs, self.pressure_dofs, mass,
                            laplacian, bcs, prefix=prefix, rtol=rtol, max_it=max_iterations)
+
+    def schur_viscosity(self):
+        """η of the Schur approximation −B A⁻¹ Bᵀ ≈ −∫ (1/η) p q where viscosity dominates:
+        the Stokes viscosity ν/2 of the secant iterate (stress ν D(u)) [Pa s]."""
+        u_k, p_k = ufl.split(self.iterate)
+        return 0.5 * self.params.rheology.secant_viscosity(u_k, p_k, self.epsilon)
 
     def accept_step(self) -> None:
         """uⁿ ← u^{n+1}, and the step's start becomes the extrapolation history."""
