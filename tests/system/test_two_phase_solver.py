@@ -1,15 +1,20 @@
 """The two-phase model's linear algebra and step control: the block preconditioner
 (``numerics.linear_solver: iterative``, with the mixture's grad-div viscosity in its Schur
 approximation) gives the LU answer, MUMPS's symbolic analysis is done once per mesh, and a
-step the fixed point fails is halved on the adaptive box too."""
+step the fixed point fails is halved on the adaptive box too; ``numerics.fixed_iterations``
+accepts a step after that many iterates (1: the linearly implicit step)."""
 
 import numpy as np
+import pytest
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from dpcollapse.config import load_config
+from dpcollapse.errors import ConfigError
+from dpcollapse.io.diagnostics import read_diagnostics
 from dpcollapse.solvers.iterative import BlockSolver
 from dpcollapse.solvers.linear import DirectSolver
-from tests.helpers import simulation
+from tests.helpers import ROOT, simulation
 
 CONFIG = "column_eulerian_a0.5.yaml"
 #: a = 0.5 on the 0.3 m × 0.06 m box in 2 cm cells (15 × 3 squares)
@@ -68,3 +73,24 @@ def test_failed_step_is_halved_on_the_adaptive_box(tmp_path):
                                          "numerics.max_iterations=4"],
                          tmp_path / "halved", comm=MPI.COMM_SELF).run()
     assert summary["status"] == "end_time" and summary["halved_steps"] >= 1
+
+
+def test_fixed_iterations_accepts_each_step_after_that_many_iterates(tmp_path):
+    """numerics.fixed_iterations = 1: one linear solve (one LU) per step, every step taken;
+    the front and height stay within a 2 cm cell of the converged run's at t = 0.05 s."""
+    over = ["time.end_time=0.05", "time.dt=2e-3"]
+    one = _flow(tmp_path, "one", over + ["numerics.fixed_iterations=1"])
+    converged = _flow(tmp_path, "converged", over)
+    its = [i for i in read_diagnostics(tmp_path / "one" / "diagnostics.csv")["iterations"]
+           if np.isfinite(i)]   # the row of t = 0 has none
+    assert set(its) == {1} and one.disc.flow.solver.factorizations == len(its) == 25
+    assert converged.disc.flow.solver.factorizations > 25
+    a, b = one.disc.measures(), converged.disc.measures()
+    for key in ("front", "max_height"):
+        assert abs(a[key] - b[key]) <= 0.02, key
+
+
+def test_fixed_iterations_needs_picard():
+    with pytest.raises(ConfigError, match="numerics.fixed_iterations = 1: only with"):
+        load_config(ROOT / "configs" / CONFIG, ["numerics.fixed_iterations=1",
+                                                "numerics.nonlinear_solver=newton"])
