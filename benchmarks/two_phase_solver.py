@@ -4,6 +4,7 @@
     python benchmarks/two_phase_solver.py profile OUT --resume [KEY=VALUE ...]
     python benchmarks/two_phase_solver.py lu OUT [KEY=VALUE ...]
     python benchmarks/two_phase_solver.py window SRC DST [KEY=VALUE ...]
+    python benchmarks/two_phase_solver.py schur CELL
 
 ``profile``: a run of ``configs/column_eulerian_a6.26.yaml`` with the overrides under
 cProfile (CPU time): steps, factorizations, the flow's assembly/factorization/solve times
@@ -16,6 +17,10 @@ CPU time of a reassembly + numeric refactorization, solve time, relative residua
 ``window``: copy SRC's checkpoint and config into DST with the config keys changed (the
 run identity dropped, so that the checkpoint resumes under other numerics); then
 ``dpcollapse run CONFIG --out DST --resume --set time.end_time=…`` continues it.
+``schur``: the a = 0.5 box (0.3 × 0.06 m, cells of CELL m) run by LU to t = 0.02 s, then
+its next flow system solved by FGMRES + Schur fieldsplit to 1e-8 with three weights 1/η of
+the pressure mass: the mixture's S/2 (``TwoPhaseFlow.schur_viscosity``), (½ + γ) S (with
+the grad-div term) and the granular law's S_g/2 (the light fluid as stiff as the grains).
 """
 
 from __future__ import annotations
@@ -26,6 +31,7 @@ import json
 import pstats
 import shutil
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -141,6 +147,57 @@ def window(src: str, dst: str, overrides: list[str]) -> None:
     np.savez(path, **data)
 
 
+def schur_weights(cell: float) -> None:
+    import ufl
+
+    from dpcollapse.models.two_phase.flow import TwoPhaseFlow
+
+    def weight(factor, granular_only):
+        def schur_viscosity(self):
+            law = self.params.rheology if granular_only else self.law
+            return factor(self) * law.secant_viscosity(*ufl.split(self.iterate), self.epsilon)
+        return schur_viscosity
+
+    weights = {"mixture S/2": weight(lambda f: 0.5, False),
+               "mixture (1/2 + gamma) S": weight(lambda f: 0.5 + f.light.grad_div, False),
+               "granular law S_g/2": weight(lambda f: 0.5, True)}
+    original = TwoPhaseFlow.schur_viscosity
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            for n, (label, method) in enumerate(weights.items()):
+                TwoPhaseFlow.schur_viscosity = method
+                print(f"{label:26s} {cell} m: {_schur_iterations(cell, Path(tmp) / str(n))}")
+    finally:
+        TwoPhaseFlow.schur_viscosity = original
+
+
+def _schur_iterations(cell: float, tmp: Path) -> str:
+    """FGMRES iterations of the a = 0.5 box's flow system after 0.02 s of LU steps."""
+    from mpi4py import MPI
+
+    from dpcollapse.config import load_config
+    from dpcollapse.simulation import Simulation
+
+    box = CONFIG.parent / "column_eulerian_a0.5.yaml"
+    base = ["model.box_height=0.06", f"geometry.mesh_size={cell}", "time.output_every=1000",
+            "time.checkpoint_every=1000"]
+    lu = Simulation(load_config(box, base + ["time.end_time=0.02"]), tmp / "lu", quiet=True,
+                    comm=MPI.COMM_SELF)
+    lu.run()
+    it = Simulation(load_config(box, base + ["numerics.linear_solver=iterative",
+                                             "numerics.krylov_rtol=1e-8"]),
+                    tmp / "it", quiet=True, comm=MPI.COMM_SELF)
+    flow = it.disc.flow
+    flow.copy_state_from(lu.disc.flow)
+    flow.set_step(1e-3)
+    flow.solver.set_operator(flow.system.assemble_matrix())
+    try:
+        flow.system.solve(flow.solver, target=flow.solution, b=flow.system.assemble_vector())
+    except RuntimeError as exc:
+        return str(exc)
+    return f"{flow.solver.last_iterations} FGMRES iterations"
+
+
 def main(argv: list[str]) -> None:
     command, *rest = argv
     if command == "profile":
@@ -151,8 +208,10 @@ def main(argv: list[str]) -> None:
         lu_options(rest[0], rest[1:])
     elif command == "window":
         window(rest[0], rest[1], rest[2:])
+    elif command == "schur":
+        schur_weights(float(rest[0]))
     else:
-        raise SystemExit(f"unknown command {command!r}: profile, lu or window")
+        raise SystemExit(f"unknown command {command!r}: profile, lu, window or schur")
 
 
 if __name__ == "__main__":
