@@ -447,7 +447,7 @@ class NumericsConfig(_Section):
     fixed_iterations: Count | None = _f(
         None, "", "Regularized Picard: accept each step after this many fixed-point iterates "
         "even when nonlinear_rtol is not met (earlier when it is); 1: the linearly implicit "
-        "step, viscosity and convection at the step's start (Gerris/Basilisk); null: iterate "
+        "step, viscosity and convection at the step's start (as Basilisk's granular.h); null: iterate "
         "to nonlinear_rtol", ge=1)
     anderson_depth: Count = _f(
         5, "", "Anderson acceleration of the fixed point: history length m (0 = plain Picard)",

@@ -7,7 +7,8 @@ LU, and stop when the estimated error of the iterate, ‖u^{k+1} − uᵏ‖·ma
 the observed contraction of successive increments, is ≤ rtol ‖u^{k+1}‖ + atol (RMS over
 velocity dofs), or, with ``fixed_iterations`` K, after K iterates whatever the test says
 (K = 1: the linearly implicit step, the viscosity and the convecting velocity taken at the
-step's start uⁿ — or at its extrapolation — as Gerris and Basilisk do). Optionally the iterates are Anderson-accelerated (``solvers.anderson``).
+step's start uⁿ — or at its extrapolation — as Basilisk's granular.h does). Optionally the
+iterates are Anderson-accelerated (``solvers.anderson``).
 The fields and conditions are those of ``models.stokes.state``.
 """
 
