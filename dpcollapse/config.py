@@ -552,6 +552,11 @@ class NumericsConfig(_Section):
     extrapolate: bool = Field(
         False, strict=True, description="Start each step's fixed point from the linear "
         "extrapolation of the last two steps instead of the last state")
+    fixed_iterations: Count | None = _f(
+        None, "", "Regularized Picard: accept each step after this many fixed-point iterates "
+        "even when nonlinear_rtol is not met (earlier when it is); 1: the linearly implicit "
+        "step, viscosity and convection at the step's start (as Basilisk's granular.h); null: iterate "
+        "to nonlinear_rtol", ge=1)
     anderson_depth: Count = _f(
         5, "", "Anderson acceleration of the fixed point: history length m (0 = plain Picard)",
         ge=0, le=50)
@@ -591,6 +596,10 @@ class NumericsConfig(_Section):
         if self.nonlinear_solver == "newton" and self.linear_solver == "iterative":
             raise ConfigError("numerics.nonlinear_solver = 'newton': needs a direct "
                               "numerics.linear_solver (mumps or superlu_dist), not iterative")
+        if self.fixed_iterations is not None and (self.method != "regularized"
+                                                  or self.nonlinear_solver != "picard"):
+            raise ConfigError(f"numerics.fixed_iterations = {self.fixed_iterations}: only with "
+                              f"numerics.method = regularized and nonlinear_solver = picard")
         if self.linear_solver == "iterative" and self.reuse_factorization:
             raise ConfigError("numerics.reuse_factorization = true: needs a direct "
                               "numerics.linear_solver (mumps or superlu_dist), not iterative")
