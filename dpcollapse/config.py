@@ -328,6 +328,86 @@ class ErodibleGeometry(TrapezoidGeometry):
         return self
 
 
+class SiloGeometry(_Geometry):
+    """A silo (flat-bottomed bin) or a hopper (``hopper_angle``) of width W filled to H, an
+    orifice of width D centred in its bottom (Beverloo's law; seed 004's hour glass); the
+    half [0, W/2] is meshed with x = 0 the symmetry line (scenes/silo.py)."""
+
+    models: ClassVar[tuple[str, ...]] = ("two_phase",)
+    #: the vessel is the scene's own (not model.box_length x box_height)
+    own_vessel: ClassVar[bool] = True
+    #: gravity is vertical in a silo
+    bed_angle: ClassVar[float] = 0.0
+
+    shape: Literal["silo"] = _f("silo", "", "The silo or hopper with an orifice in its bottom")
+    width: Number = _f(0.2, "m", "Width W of the bin", gt=0)
+    fill_height: Number = _f(0.2, "m", "Height H of the initial fill above the orifice", gt=0)
+    bin_height: Number = _f(0.25, "m", "Height of the vessel above the orifice (the open top)",
+                            gt=0)
+    orifice_width: Number = _f(0.03, "m", "Width D of the orifice, centred in the bottom", gt=0)
+    hopper_angle: Number | None = _f(
+        None, "deg", "Half-angle beta of the hopper walls from the vertical (null: flat bottom)",
+        gt=0, lt=90)
+    mesh_size: Number = _mesh_size()
+    orifice_mesh_size: Number | None = _f(
+        None, "m", "Cell size at the orifice's centre and edges (graded to mesh_size); null "
+        "means mesh_size", gt=0)
+    empty_fraction: Number = _f(
+        0.01, "", "The run ends with status emptied when the bin holds less than this fraction "
+        "of its initial material", gt=0, lt=1)
+
+    @property
+    def hopper_top(self) -> float:
+        """y_h = (W - D)/(2 tan beta) [m] (0: flat bottom)."""
+        if self.hopper_angle is None:
+            return 0.0
+        return 0.5 * (self.width - self.orifice_width) / math.tan(math.radians(self.hopper_angle))
+
+    @property
+    def footprint(self) -> tuple[float, float]:
+        return 0.5 * self.width, self.fill_height
+
+    @property
+    def area(self) -> float:
+        """Area of the initial fill in the half vessel [m^2]."""
+        r, d, h, yh = 0.5 * self.width, 0.5 * self.orifice_width, self.fill_height, self.hopper_top
+        if h >= yh:
+            return r * h - 0.5 * (r - d) * yh
+        x = d + h * math.tan(math.radians(self.hopper_angle))
+        return 0.5 * (d + x) * h
+
+    def describe(self) -> str:
+        kind = ("flat-bottomed silo" if self.hopper_angle is None
+                else f"hopper (half-angle {self.hopper_angle:g} deg)")
+        return (f"{kind}: width {self.width:g} m, fill {self.fill_height:g} m, orifice "
+                f"{self.orifice_width:g} m, vessel height {self.bin_height:g} m")
+
+    @model_validator(mode="after")
+    def _fits(self) -> SiloGeometry:
+        if self.orifice_width >= self.width:
+            raise ConfigError(f"geometry.orifice_width = {_fmt(self.orifice_width)}: must be < "
+                              f"geometry.width = {_fmt(self.width)} m")
+        if self.fill_height > self.bin_height:
+            raise ConfigError(f"geometry.fill_height = {_fmt(self.fill_height)}: must be <= "
+                              f"geometry.bin_height = {_fmt(self.bin_height)} m (the fill is "
+                              "inside the vessel)")
+        if self.hopper_angle is not None and self.hopper_top >= self.bin_height:
+            least = math.degrees(math.atan(0.5 * (self.width - self.orifice_width) / self.bin_height))
+            raise ConfigError(f"geometry.hopper_angle = {_fmt(self.hopper_angle)}: must be in "
+                              f"({least:.3g}, 90) degrees (the hopper's walls must meet the "
+                              f"side walls below geometry.bin_height = {_fmt(self.bin_height)} m)")
+        key = "orifice_mesh_size" if self.orifice_mesh_size is not None else "mesh_size"
+        h = getattr(self, key)
+        if h >= 0.5 * self.orifice_width:
+            raise ConfigError(f"geometry.{key} = {_fmt(h)}: must be < {0.5 * self.orifice_width:.3g} m "
+                              "(half the orifice: at least two cells across the half orifice)")
+        limit = 0.5 * min(0.5 * self.width, self.bin_height)
+        if self.mesh_size >= limit:
+            raise ConfigError(f"geometry.mesh_size = {_fmt(self.mesh_size)}: must be < {limit:.3g} m "
+                              "(half of min(width/2, bin_height))")
+        return self
+
+
 def _shape_of(value: Any) -> str:
     """The geometry class of a mapping or model: its ``shape``, trapezoid when absent."""
     if isinstance(value, dict):
@@ -337,12 +417,14 @@ def _shape_of(value: Any) -> str:
 
 GeometryConfig = Annotated[
     Annotated[TrapezoidGeometry, Tag("trapezoid")] | Annotated[LayerGeometry, Tag("layer")]
-    | Annotated[ColumnGeometry, Tag("column")] | Annotated[ErodibleGeometry, Tag("erodible")],
+    | Annotated[ColumnGeometry, Tag("column")] | Annotated[ErodibleGeometry, Tag("erodible")]
+    | Annotated[SiloGeometry, Tag("silo")],
     Discriminator(_shape_of),
 ]
 #: geometry.shape -> its config class
 GEOMETRIES: dict[str, type[_Geometry]] = {"trapezoid": TrapezoidGeometry, "layer": LayerGeometry,
-                                          "column": ColumnGeometry, "erodible": ErodibleGeometry}
+                                          "column": ColumnGeometry, "erodible": ErodibleGeometry,
+                                          "silo": SiloGeometry}
 
 
 class MaterialConfig(_Section):
@@ -470,6 +552,11 @@ class NumericsConfig(_Section):
     extrapolate: bool = Field(
         False, strict=True, description="Start each step's fixed point from the linear "
         "extrapolation of the last two steps instead of the last state")
+    fixed_iterations: Count | None = _f(
+        None, "", "Regularized Picard: accept each step after this many fixed-point iterates "
+        "even when nonlinear_rtol is not met (earlier when it is); 1: the linearly implicit "
+        "step, viscosity and convection at the step's start (as Basilisk's granular.h); null: iterate "
+        "to nonlinear_rtol", ge=1)
     anderson_depth: Count = _f(
         5, "", "Anderson acceleration of the fixed point: history length m (0 = plain Picard)",
         ge=0, le=50)
@@ -509,6 +596,10 @@ class NumericsConfig(_Section):
         if self.nonlinear_solver == "newton" and self.linear_solver == "iterative":
             raise ConfigError("numerics.nonlinear_solver = 'newton': needs a direct "
                               "numerics.linear_solver (mumps or superlu_dist), not iterative")
+        if self.fixed_iterations is not None and (self.method != "regularized"
+                                                  or self.nonlinear_solver != "picard"):
+            raise ConfigError(f"numerics.fixed_iterations = {self.fixed_iterations}: only with "
+                              f"numerics.method = regularized and nonlinear_solver = picard")
         if self.linear_solver == "iterative" and self.reuse_factorization:
             raise ConfigError("numerics.reuse_factorization = true: needs a direct "
                               "numerics.linear_solver (mumps or superlu_dist), not iterative")
@@ -813,6 +904,13 @@ class Config(_Section):
         if self.output.format != "xdmf":
             raise ConfigError(f"output.format = {self.output.format!r}: must be 'xdmf' with "
                               "model.name = two_phase")
+        if getattr(g, "own_vessel", False):
+            if m.min_cell is not None or m.max_cell is not None:
+                key = "min_cell" if m.min_cell is not None else "max_cell"
+                raise ConfigError(f"model.{key} = {_fmt(getattr(m, key))}: the adaptive box is for "
+                                  f"the box scenes; must be null with geometry.shape = {g.shape}")
+            self._unused_numerics("two_phase", allowed=("regularized", "picard"))
+            return
         (length, height), what = g.footprint, "initial material"
         if m.box_length < length:
             raise ConfigError(f"model.box_length = {_fmt(m.box_length)}: must be >= {length:g} m "

@@ -113,6 +113,25 @@ def _plot_profiles(run_dir: Path, series, picks, ax_h, ax_u, cmap) -> None:
     ax_u.grid(alpha=0.3)
 
 
+def _plot_discharge(ax, d) -> None:
+    """A bin's discharge: Q(t) from the orifice flux and −dm/dt of the bin's mass [kg/(m s)],
+    the fill height H(t) on the right axis [m]."""
+    t = np.asarray(d["t"])
+    ax.plot(t, d["discharge_rate"], label="Q, flux through the orifice")
+    if len(t) > 2:
+        ax.plot(t, -np.gradient(np.asarray(d["bin_mass"]), t), "--", lw=1,
+                label="−dm/dt of the bin's mass")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("Q [kg/(m s)]")
+    ax.grid(alpha=0.3)
+    right = ax.twinx()
+    right.plot(t, d["fill_height"], color="k", lw=1, label="fill height H (right axis)")
+    right.set_ylabel("H [m]")
+    lines = ax.get_legend_handles_labels()
+    more = right.get_legend_handles_labels()
+    ax.legend(lines[0] + more[0], lines[1] + more[1], fontsize=8)
+
+
 def plot_run(run_dir: Path, times: list[float] | None = None) -> Path:
     """Draw profiles at ``times`` (default: six output times) and front vs time."""
     import matplotlib
@@ -178,7 +197,9 @@ def plot_run(run_dir: Path, times: list[float] | None = None) -> Path:
     diag_path = run_dir / "diagnostics.csv"
     if diag_path.exists():
         d = read_diagnostics(diag_path)
-        if d:
+        if d and "discharge_rate" in d:
+            _plot_discharge(ax2, d)
+        elif d:
             ax2.plot(d["t"], d["front"], label="front position (furthest x of the mass)")
             ax2.plot(d["t"], d["max_height"], label="maximum height")
             ax2.set_xlabel("t [s]")

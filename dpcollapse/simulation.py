@@ -449,6 +449,12 @@ class Simulation:
                     self._output()
                 if self.checkpoint_export.due(st.step) or at_rest or stop:
                     self._checkpoint()
+                emptied = bool(m.get("emptied", False))   # a bin that has discharged
+                if emptied and not (at_rest or stop):
+                    self._output()
+                    self._checkpoint()
+                    st.status = "emptied"
+                    break
                 if at_rest or stop:
                     st.status = "at_rest" if at_rest else "stopped_by_observer"
                     break
@@ -510,7 +516,9 @@ class Simulation:
             "remeshes": self.state.remeshes, "front": m["front"], "max_height": m["max_height"],
             "thick_front": m["thick_front"], "film_threshold": self.disc.film_threshold,
             "landings": self.state.landings or 0,
-            "area": m["area"], "area_drift": (m["area"] - self.state.area0) / self.state.area0,
+            # the area that left through an outflow side is outflow, not a loss
+            "area": m["area"], "area_drift": (m["area"] + m.get("outflow_area", 0.0)
+                                              - self.state.area0) / self.state.area0,
             "kinetic_energy": m["kinetic_energy"], "min_angle": _finite(m["min_angle"]),
             "min_detJ": _finite(m["min_detJ"]),
             "mean_iterations": float(np.mean(its)) if its else 0.0,
@@ -522,6 +530,7 @@ class Simulation:
             "rejected_steps": self.controller.rejected if self.controller else 0,
         }
         summary.update({k: m[k] for k in self.disc.extra_measures})
+        summary.update(getattr(self.disc, "summary_measures", dict)())   # a model's own
         summary["model"] = self.cfg.model.name
         if error:
             summary["error"] = error

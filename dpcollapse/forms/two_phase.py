@@ -79,6 +79,22 @@ def fraction_flux(c, u, v, n, dS, ds):
     return flux * (v('+') - v('-')) * dS + _positive(ufl.dot(u, n)) * c * v * ds
 
 
+def outflow_volume_rate(c, u, n, ds_out):
+    """∫_out (u·n)⁺ c ds: the volume of material leaving through the outflow sides per unit
+    time and depth [m²/s] (the boundary part of ``fraction_flux`` restricted to them)."""
+    return _positive(ufl.dot(u, n)) * c * ds_out
+
+
+def ambient_traction(density, body_force, reference, v, n, ds_out, mesh):
+    """−∫_out p_a (v·n) ds with p_a = ρ_a f·(x − x_ref): the traction σ n = −p_a n of the
+    light fluid at rest outside an outflow side, zero at the open top's point x_ref (the light
+    fluid standing in the vessel is then in equilibrium; the material leaves at p = p_a)."""
+    x = ufl.SpatialCoordinate(mesh)
+    ref = ufl.as_vector(reference)
+    pressure = density * ufl.dot(body_force, x - ref)
+    return -pressure * ufl.dot(v, n) * ds_out
+
+
 def compression_flux(c, u, v, n, dS, coefficient):
     """∫ C |u·n| φ (v⁺ − v⁻) dS, the interface compression: across a facet the flux from the
     emptier cell to the fuller one, φ = c⁺ (1 − c⁻) when c⁻ > c⁺, −c⁻ (1 − c⁺) when c⁺ > c⁻

@@ -19,8 +19,9 @@ from mpi4py import MPI
 from dpcollapse import compat
 
 #: Physical facet tags shared by the whole project.
-BED, WALL, SURFACE, LEFT, RIGHT = 1, 2, 3, 4, 5
-TAG_NAMES = {BED: "bed", WALL: "wall", SURFACE: "surface", LEFT: "left", RIGHT: "right"}
+BED, WALL, SURFACE, LEFT, RIGHT, ORIFICE = 1, 2, 3, 4, 5, 6
+TAG_NAMES = {BED: "bed", WALL: "wall", SURFACE: "surface", LEFT: "left", RIGHT: "right",
+             ORIFICE: "orifice"}
 DOMAIN = 10
 #: Cell tag of an erodible layer under the mass (same material; a second region). Interior
 #: polygon edges (between two regions) carry the edge tag INTERFACE and no facet tag.
@@ -134,9 +135,11 @@ def size_function(mesh_size: float, surface_mesh_size: float | None):
 
 
 def mesh_polygon(comm: MPI.Comm, points: np.ndarray | None, edge_tags: np.ndarray | None,
-                 mesh_size: float, surface_mesh_size: float | None = None) -> TaggedMesh:
-    """Mesh the polygon given on rank 0 (other ranks may pass None) over ``comm``."""
-    size = size_function(mesh_size, surface_mesh_size)
+                 mesh_size: float, surface_mesh_size: float | None = None,
+                 size: Callable[[np.ndarray, int], float] | None = None) -> TaggedMesh:
+    """Mesh the polygon given on rank 0 (other ranks may pass None) over ``comm``; ``size``
+    (point, edge tag) → target size replaces ``size_function`` when given."""
+    size = size or size_function(mesh_size, surface_mesh_size)
     return _mesh_on_root(comm, lambda gmsh: build_polygon_model(
         gmsh, np.asarray(points), np.asarray(edge_tags), size))
 
@@ -259,10 +262,12 @@ def write_regions_msh(path, regions: list, mesh_size: float,
 
 
 def write_polygon_msh(path, points: np.ndarray, edge_tags: np.ndarray, mesh_size: float,
-                      surface_mesh_size: float | None = None) -> None:
+                      surface_mesh_size: float | None = None,
+                      size: Callable[[np.ndarray, int], float] | None = None) -> None:
     """Write the gmsh mesh of a polygon to a ``.msh`` file (serial)."""
     with gmsh_session() as gmsh:
-        build_polygon_model(gmsh, points, edge_tags, size_function(mesh_size, surface_mesh_size))
+        build_polygon_model(gmsh, points, edge_tags,
+                            size or size_function(mesh_size, surface_mesh_size))
         gmsh.write(str(path))
 
 

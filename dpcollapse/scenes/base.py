@@ -8,6 +8,8 @@ normal n of a straight side (tangent t = (−n_y, n_x), the counter-clockwise di
     coulomb        u·n = 0,  σ_T = −μ [p − σ'_nn]_+ u_T/|u_T|      (Coulomb friction μ)
     slip           u·n = 0,  σ_T = 0                              (frictionless; symmetry)
     free_surface   σ n = 0  (p = 0 for the pressure preconditioner; ALE: (w − u)·n = 0)
+    outflow        σ n = −p_a n, p_a = ρ_a f·(x − x_ref) the ambient light fluid's
+                   hydrostatic pressure (zero at the open top's point x_ref): an orifice
     periodic       u(x) = u(x + translation) on the side that carries the translation
 
 u·n = 0 is imposed strongly on the velocity component along n where the side is parallel to
@@ -27,8 +29,10 @@ from typing import Protocol
 
 import numpy as np
 
+from dpcollapse.geometry.layer import structured_rectangle
 from dpcollapse.geometry.mesher import (
     BED,
+    RIGHT,
     SURFACE,
     WALL,
     TaggedMesh,
@@ -44,6 +48,7 @@ class BoundaryKind(str, Enum):
     SLIP = "slip"
     FREE_SURFACE = "free_surface"
     PERIODIC = "periodic"
+    OUTFLOW = "outflow"
 
 
 #: Kinds with no penetration u·n = 0 (and w·n = 0 for the mesh velocity).
@@ -56,7 +61,8 @@ class Boundary:
 
     tag: facet tag; name: names its friction term ``<name>_friction``; normal: outward unit
     normal of a straight side (None for the free surface); friction: μ (coulomb);
-    translation: on the slave side of a periodic pair, the shift onto the master side.
+    translation: on the slave side of a periodic pair, the shift onto the master side;
+    reference: on an outflow side, a point x_ref of the open top (p_a(x_ref) = 0).
     """
 
     tag: int
@@ -65,6 +71,7 @@ class Boundary:
     normal: tuple[float, float] | None = None
     friction: float = 0.0
     translation: tuple[float, float] | None = None
+    reference: tuple[float, float] | None = None
 
     @property
     def tangent(self) -> tuple[float, float]:
@@ -93,6 +100,51 @@ class Boundary:
         return self.kind == BoundaryKind.COULOMB and self.friction > 0
 
 
+@dataclass(frozen=True)
+class Container:
+    """What a model on a fixed mesh (the two-phase model) takes from a scene: the vessel
+    holding the material and the light fluid, its sides, and where the material starts.
+
+    mesh(comm, cell_size): the mesh of the vessel with cells of about ``cell_size`` (finer
+    where the scene resolves a detail) and its facets tagged; boundaries: one
+    :class:`Boundary` per facet tag (walls no slip or Coulomb, symmetry slip, the open top
+    free_surface, an orifice outflow); fraction_region: convex CCW polygons (m, 2) whose
+    union is the material at t = 0 (c = |K ∩ ∪P| / |K|); box: (length, height) when the
+    vessel is the rectangle [0, length] × [0, height] (an adaptive box may remesh it), else
+    None; floor: y(x) of the vessel's bottom under the side wall's strip, for the fill height
+    floor + ∫ c dy there (None: not a bin).
+    """
+
+    mesh: Callable
+    boundaries: tuple[Boundary, ...]
+    fraction_region: tuple[np.ndarray, ...]
+    length: float
+    height: float
+    box: tuple[float, float] | None = None
+    floor: Callable | None = None
+
+    def of_kind(self, kind: BoundaryKind) -> list[Boundary]:
+        return [b for b in self.boundaries if b.kind == kind]
+
+
+def box_container(length: float, height: float, boundaries: tuple[Boundary, ...],
+                  region: tuple[np.ndarray, ...]) -> Container:
+    """The rectangle [0, length] × [0, height] in structured triangles (sides tagged BED,
+    LEFT, RIGHT, SURFACE: ``geometry.layer.structured_rectangle``)."""
+    def mesh(comm, cell_size):
+        nx, ny = max(2, round(length / cell_size)), max(2, round(height / cell_size))
+        return structured_rectangle(comm, length, height, nx, ny)
+
+    return Container(mesh, boundaries, region, length, height, box=(length, height))
+
+
+def open_box_boundaries(bed: Boundary, left: Boundary) -> tuple[Boundary, ...]:
+    """The box of a collapse: the bed, the left side x = 0, the slip right side, the open
+    top (σ·n = 0: the light fluid leaves and enters freely; the pressure needs no gauge)."""
+    return (bed, left, Boundary(RIGHT, "right", BoundaryKind.SLIP, (1.0, 0.0)),
+            Boundary(SURFACE, "top", BoundaryKind.FREE_SURFACE))
+
+
 class Scene(Protocol):
     """A scene: ``shape`` (its ``geometry.shape``), built from the config by ``from_config``."""
 
@@ -112,6 +164,11 @@ class Scene(Protocol):
 
     def write_msh(self, path: Path) -> Path:
         """Write the initial mesh to a gmsh ``.msh`` file (``dpcollapse mesh``)."""
+
+    def container(self, box: tuple[float, float]) -> Container:
+        """The vessel of a fixed-mesh model (:class:`Container`); ``box`` the (length,
+        height) of ``model.box_length``, ``box_height`` for scenes that stand in a box.
+        Only scenes whose ``models`` include two_phase provide it."""
 
 
 def initial_velocity(velocity: str, height: float, surface_speed: float):

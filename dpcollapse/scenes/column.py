@@ -16,13 +16,17 @@ import numpy as np
 
 from dpcollapse.geometry.mesher import (
     BED,
+    LEFT,
     SURFACE,
     WALL,
 )
 from dpcollapse.scenes.base import (
     Boundary,
     BoundaryKind,
+    Container,
     PolygonScene,
+    box_container,
+    open_box_boundaries,
     bed_boundary,
     initial_velocity,
     top_extent,
@@ -59,6 +63,14 @@ class ColumnScene(PolygonScene):
         return (bed_boundary(BED, self.bed_condition, self.mu_bed),
                 Boundary(WALL, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0)),
                 Boundary(SURFACE, "surface", BoundaryKind.FREE_SURFACE))
+
+    def container(self, box) -> Container:
+        """The column [0, L0] × [0, H0] in the box, the symmetry plane x = 0 (slip)."""
+        region = np.array([[0.0, 0.0], [self.half_width, 0.0], [self.half_width, self.height],
+                           [0.0, self.height]])
+        return box_container(*box, open_box_boundaries(
+            bed_boundary(BED, self.bed_condition, self.mu_bed),
+            Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0))), (region,))
 
     def initial_velocity(self):
         return initial_velocity(self.velocity, self.height, self.surface_speed)

@@ -30,7 +30,7 @@ __all__ = [
 ]
 
 #: run.json statuses of a finished case: skipped when the sweep runs again.
-DONE = ("at_rest", "end_time", "stopped_by_observer")
+DONE = ("at_rest", "end_time", "stopped_by_observer", "emptied")
 
 #: The columns after the varied parameters, in order.
 COLUMNS = ("case", "status", "exit_code", "front", "runout", "max_height", "t_end", "steps",

@@ -5,7 +5,10 @@ velocity w, iterate k = 0, 1, …: assemble the linear Oseen/Stokes problem of
 ``forms.momentum`` + ``forms.friction`` with coefficients frozen at (uᵏ, pᵏ), solve it by
 LU, and stop when the estimated error of the iterate, ‖u^{k+1} − uᵏ‖·max(1, ρ/(1 − ρ)) with ρ
 the observed contraction of successive increments, is ≤ rtol ‖u^{k+1}‖ + atol (RMS over
-velocity dofs). Optionally the iterates are Anderson-accelerated (``solvers.anderson``).
+velocity dofs), or, with ``fixed_iterations`` K, after K iterates whatever the test says
+(K = 1: the linearly implicit step, the viscosity and the convecting velocity taken at the
+step's start uⁿ — or at its extrapolation — as Basilisk's granular.h does). Optionally the
+iterates are Anderson-accelerated (``solvers.anderson``).
 The fields and conditions are those of ``models.stokes.state``.
 """
 
@@ -50,6 +53,7 @@ class PicardSettings:
     krylov_rtol: float = 1e-10  # linear_solver iterative: relative residual of FGMRES
     krylov_max_iterations: int = 500
     time_scheme: str = "bdf1"  # time.scheme: bdf1 or bdf2 (solvers.bdf)
+    fixed_iterations: int | None = None  # accept the step after this many iterates (None: converge)
 
 
 def picard_settings(cfg) -> PicardSettings:
@@ -58,7 +62,8 @@ def picard_settings(cfg) -> PicardSettings:
     return PicardSettings(n.epsilon, n.epsilon_friction, n.nonlinear_rtol, n.nonlinear_atol,
                           n.max_iterations, n.linear_solver, n.anderson_depth,
                           n.reuse_factorization, n.quadrature_degree, n.extrapolate,
-                          n.krylov_rtol, n.krylov_max_iterations, cfg.time.scheme)
+                          n.krylov_rtol, n.krylov_max_iterations, cfg.time.scheme,
+                          n.fixed_iterations)
 
 
 class RegularizedFlow(StokesState):
@@ -137,21 +142,25 @@ class RegularizedFlow(StokesState):
     def iterative_solver(self, rtol: float, max_iterations: int,
                          prefix: str = "dpc_flow_") -> BlockSolver:
         """FGMRES + Schur fieldsplit (``solvers.iterative``) with its two pressure operators
-        on the current iterate: the mass matrix weighted by 2/ν (ν the secant viscosity) and
+        on the current iterate: the mass matrix weighted by 1/η (``schur_viscosity``) and
         the Laplacian weighted by Δt/ρ, with p = 0 on the free surface."""
         if self.params.periodic_slave is not None:
             raise ValueError("linear_solver iterative: not available on a periodic layer")
         _, p = ufl.TrialFunctions(self.W)
         _, q = ufl.TestFunctions(self.W)
-        u_k, p_k = ufl.split(self.iterate)
-        nu = self.params.rheology.secant_viscosity(u_k, p_k, self.epsilon)
         dx = ufl.Measure("dx", domain=self.mesh, metadata={"quadrature_degree": 2})
-        mass = 2.0 / nu * p * q * dx
+        mass = 1.0 / self.schur_viscosity() * p * q * dx
         laplacian = self.dt / self._rho * ufl.inner(ufl.grad(p), ufl.grad(q)) * ufl.dx
         bcs = [zero_dirichlet(self.W.sub(1), self.tagged.facet_tags, b.tag)
                for b in self.params.of_kind(BoundaryKind.FREE_SURFACE)]
         return BlockSolver(self.comm, self.W, self.velocity_dofs, self.pressure_dofs, mass,
                            laplacian, bcs, prefix=prefix, rtol=rtol, max_it=max_iterations)
+
+    def schur_viscosity(self):
+        """η of the Schur approximation −B A⁻¹ Bᵀ ≈ −∫ (1/η) p q where viscosity dominates:
+        the Stokes viscosity ν/2 of the secant iterate (stress ν D(u)) [Pa s]."""
+        u_k, p_k = ufl.split(self.iterate)
+        return 0.5 * self.params.rheology.secant_viscosity(u_k, p_k, self.epsilon)
 
     def accept_step(self) -> None:
         """uⁿ ← u^{n+1}, and the step's start becomes the extrapolation history."""
@@ -210,7 +219,9 @@ class RegularizedFlow(StokesState):
             error = distance_to_limit(change, rho)
             previous = change
             residual = error / scale if scale > 0 else error
-            if error <= s.rtol * scale + s.atol:
+            # numerics.fixed_iterations: the step is accepted after that many iterates even
+            # when the test is not met (1: the linearly implicit step, coefficients at the start)
+            if error <= s.rtol * scale + s.atol or k == s.fixed_iterations:
                 self.iterate.x.array[:] = self.solution.x.array
                 self._pending_history = (start, dt)
                 if measured is not None:

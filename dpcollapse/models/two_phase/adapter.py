@@ -14,11 +14,11 @@ On the erodible layer the fronts leave the layer out, as the moving-mesh scene d
 front is the furthest x of the granular cells whose centroid lies above 2 h_e, the thickness
 front the right edge of the furthest column with h ≥ max(film threshold, 2 h_e).
 
-The sides: the bed of ``boundary.bed_condition`` (no slip, or Coulomb μ_b on p: zero in the
-light fluid); at x = 0 the column's symmetry plane (u_x = 0) or the erodible scene's wall
-(u_x = 0 and Coulomb μ_l = ``boundary.wall_friction_angle``, as on the moving mesh); u_x = 0 on
-the right side (slip); the top open (σ·n = 0: the light fluid leaves and enters freely, and
-the pressure needs no gauge).
+The vessel, its sides and the initial material are the scene's (``scenes.base.Container``,
+the one owner of geometry): the column's and the erodible layer's box has the bed of
+``boundary.bed_condition``, the symmetry plane or wall x = 0, the slip right side and the open
+top (σ·n = 0: the light fluid leaves and enters freely, and the pressure needs no gauge); the
+silo (``scenes.silo``) its bin, walls and orifice (outflow).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.domain.fixed import FixedDomain
 from dpcollapse.geometry.layer import structured_rectangle
-from dpcollapse.geometry.mesher import BED, LEFT, RIGHT, SURFACE, TaggedMesh
+from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
 from dpcollapse.io.law_fields import LawFields
 from dpcollapse.models.stokes.regularized import picard_settings
@@ -43,10 +43,11 @@ from dpcollapse.models.two_phase.flow import LightFluid, TwoPhaseFlow
 from dpcollapse.models.two_phase.fraction import owned_triangles
 from dpcollapse.models.two_phase.layer import MEASURES as LAYER_MEASURES
 from dpcollapse.models.two_phase.layer import LayerTracer
-from dpcollapse.models.two_phase.overlap import rectangle_fraction
+from dpcollapse.models.two_phase.overlap import union_fraction
 from dpcollapse.models.two_phase.remap import strip_overlaps
 from dpcollapse.rheology.choice import law_from_material
-from dpcollapse.scenes.base import Boundary, BoundaryKind, bed_boundary, film_threshold
+from dpcollapse.scenes.base import Container, film_threshold
+from dpcollapse.scenes.registry import scene
 
 
 def box_mesh(comm, length: float, height: float, mesh_size: float) -> TaggedMesh:
@@ -54,6 +55,13 @@ def box_mesh(comm, length: float, height: float, mesh_size: float) -> TaggedMesh
     LEFT (the symmetry wall), RIGHT and SURFACE (the open top)."""
     nx, ny = max(2, round(length / mesh_size)), max(2, round(height / mesh_size))
     return structured_rectangle(comm, length, height, nx, ny)
+
+
+def container(cfg) -> Container:
+    """The scene's vessel (``scenes.base.Container``): its mesh, sides and initial material;
+    the box of ``model.box_length`` × ``model.box_height`` for the scenes that stand in one."""
+    m = cfg.model
+    return scene(cfg).container((m.box_length, m.box_height))
 
 
 def cell_sizes(cfg) -> tuple[float, float]:
@@ -70,31 +78,18 @@ def is_adaptive(cfg) -> bool:
     return cfg.model.min_cell is not None and fine < coarse
 
 
-def adaptive_domain(cfg) -> AdaptiveBox:
+def adaptive_domain(cfg, box: tuple[float, float]) -> AdaptiveBox:
     m = cfg.model
     fine, coarse = cell_sizes(cfg)
     size = SizeField(fine, coarse, m.refine_band * fine, m.refine_grading)
-    return AdaptiveBox(m.box_length, m.box_height, size, m.refine_fraction, m.remesh_every)
+    return AdaptiveBox(*box, size, m.refine_fraction, m.remesh_every)
 
 
-def box_boundaries(cfg) -> tuple[Boundary, ...]:
-    """The bed, the left side x = 0 (the column's frictionless symmetry plane; the erodible
-    scene's wall, Coulomb μ_l on p as on the moving mesh), the slip right side, the open top."""
-    b = cfg.boundary
-    if cfg.geometry.shape == "erodible" and b.mu_wall > 0:
-        left = Boundary(LEFT, "wall", BoundaryKind.COULOMB, (-1.0, 0.0), friction=b.mu_wall)
-    else:
-        left = Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0))
-    return (bed_boundary(BED, b.bed_condition, b.mu_bed), left,
-            Boundary(RIGHT, "right", BoundaryKind.SLIP, (1.0, 0.0)),
-            Boundary(SURFACE, "top", BoundaryKind.FREE_SURFACE))
-
-
-def make_flow(tagged: TaggedMesh, cfg) -> TwoPhaseFlow:
+def make_flow(tagged: TaggedMesh, cfg, vessel: Container) -> TwoPhaseFlow:
     m, model = cfg.material, cfg.model
     params = FlowParameters(density=m.density, gravity=m.gravity,
                             bed_angle=math.radians(cfg.geometry.bed_angle),
-                            rheology=law_from_material(cfg.material), boundaries=box_boundaries(cfg))
+                            rheology=law_from_material(cfg.material), boundaries=vessel.boundaries)
     light = LightFluid(model.air_density, model.air_viscosity, model.courant, model.compression,
                        model.grad_div)
     return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
@@ -103,6 +98,13 @@ def make_flow(tagged: TaggedMesh, cfg) -> TwoPhaseFlow:
 def _shortest_edges(triangles: np.ndarray) -> np.ndarray:
     """The shortest edge of each triangle (n, 3, 2) [m]."""
     return np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).min(axis=1)
+
+
+#: a bin's measures (the half vessel; Q for the whole symmetric silo): the discharge rate Q
+#: [kg/(m s)] = 2 ρ_s (volume through the orifice in the step)/Δt, the granular area that has
+#: left [m²], the fill height floor(x_w) + ∫ c dy at the side wall's strip x_w [m], the
+#: granular mass in the whole bin 2 ρ_s ∫ c dx [kg/m]
+BIN_MEASURES = ("discharge_rate", "outflow_area", "fill_height", "bin_mass")
 
 
 class TwoPhaseDiscretization:
@@ -114,11 +116,12 @@ class TwoPhaseDiscretization:
     extra_measures = ("wall_height", "fraction_min", "fraction_max", "substeps",
                       "mixture_kinetic_energy", "divergence_rate")
 
-    def __init__(self, tagged: TaggedMesh, cfg):
+    def __init__(self, tagged: TaggedMesh, cfg, vessel: Container | None = None):
         self.cfg, self.tagged = cfg, tagged
+        self.vessel = vessel = vessel or container(cfg)
         self.mesh = mesh = tagged.mesh
         self.comm = mesh.comm
-        self.flow = flow = make_flow(tagged, cfg)
+        self.flow = flow = make_flow(tagged, cfg, vessel)
         self.fraction = flow.fraction
         g, model = cfg.geometry, cfg.model
         fine = cell_sizes(cfg)[0]
@@ -130,17 +133,22 @@ class TwoPhaseDiscretization:
         self.thick_floor = max(self.film_threshold, floor)
         if self.layer:
             self.extra_measures = type(self).extra_measures + LAYER_MEASURES
+        self.bin = vessel.floor is not None
+        self._discharge, self._last_outflow = [], None   # (Δt, Q) of the accepted steps
+        if self.bin:
+            self.extra_measures = type(self).extra_measures + BIN_MEASURES
         # columns for h(x) = ∫ c dy: strips of the structured mesh's width along x (on the
         # adaptive mesh: of min_cell)
-        self.nx = max(2, round(model.box_length / fine))
-        self.dx_bin = model.box_length / self.nx
+        self.nx = max(2, round(vessel.length / fine))
+        self.dx_bin = vessel.length / self.nx
         n = compat.num_owned_cells(mesh)
         tri = owned_triangles(mesh)
         self._cells = compat.cell_dofs(self.fraction.S0)[:n, 0]
         self._xmax = tri[:, :, 0].max(axis=1)
         self._above = tri[:, :, 1].mean(axis=1) > floor    # cells counted by the mass front
         self._volume = self.fraction.volume[self._cells] if len(self._cells) else np.zeros(0)
-        if is_adaptive(cfg):   # |K ∩ strip_j| (exact: the cells straddle the strips)
+        if is_adaptive(cfg) or vessel.box is None:   # |K ∩ strip_j| (exact: the cells straddle
+            # the strips of an unstructured mesh)
             self._strip_cell, self._bin, self._strip_area = strip_overlaps(tri, self.dx_bin, self.nx)
         else:                  # each structured cell lies in the strip of its centroid
             self._strip_cell, self._strip_area = np.arange(len(tri)), self._volume
@@ -168,19 +176,15 @@ class TwoPhaseDiscretization:
         eps = cfg.numerics.epsilon
         self.out_extra = LawFields(flow.params.rheology, u, p, eps, S0)
 
-    def set_column(self, length: float, height: float) -> None:
-        """c = |K ∩ [0, L0] × [0, H0]| / |K| in each cell (exact)."""
-        values = rectangle_fraction(owned_triangles(self.mesh), (0.0, 0.0), (length, height))
+    def set_initial(self) -> None:
+        """c = |K ∩ ∪P| / |K| in each cell for the scene's initial region ∪P (exact); on the
+        erodible layer c_L = |K ∩ layer| / |K| too."""
+        values = union_fraction(owned_triangles(self.mesh), self.vessel.fraction_region)
         c = self.fraction.c
         c.x.array[self._cells] = values
         c.x.scatter_forward()
-
-    def set_erodible(self) -> None:
-        """c = |K ∩ (layer ∪ mass)| / |K| and c_L = |K ∩ layer| / |K| (exact)."""
-        c = self.fraction.c
-        c.x.array[self._cells] = self.layer.initial_c()
-        c.x.scatter_forward()
-        self.layer.set_initial()
+        if self.layer:
+            self.layer.set_initial()
 
     # ------------------------------------------------------------------ measures
     def area(self) -> float:
@@ -238,6 +242,8 @@ class TwoPhaseDiscretization:
         speed = self._granular_speed()
         lo, hi = self.fraction.bounds()
         out = self.layer.measures() if self.layer else {}
+        if self.bin:
+            out = out | self._bin_measures(h)
         return out | {
             "front": self.comm.allreduce(front, op=MPI.MAX),
             "thick_front": float((thick[-1] + 1) * self.dx_bin) if len(thick) else -math.inf,
@@ -254,6 +260,40 @@ class TwoPhaseDiscretization:
             "mixture_kinetic_energy": self.comm.allreduce(
                 fem.assemble_scalar(self._kinetic_mixture), op=MPI.SUM),
         }
+
+    def _bin_measures(self, h: np.ndarray) -> dict:
+        """The bin's measures (``BIN_MEASURES``) and ``emptied``: less than
+        ``geometry.empty_fraction`` of the initial material left in the bin."""
+        rho = self.cfg.material.density
+        volume, dt = self.fraction.step_outflow
+        area = self.area()
+        if dt > 0 and volume != self._last_outflow:
+            self._discharge.append((dt, 2.0 * rho * volume / dt))
+        self._last_outflow = volume
+        left = self.fraction.outflow_volume
+        wall_x = (self.nx - 0.5) * self.dx_bin
+        initial = area + left
+        return {"discharge_rate": 2.0 * rho * volume / dt if dt > 0 else 0.0,
+                "outflow_area": left,
+                "fill_height": float(self.vessel.floor(wall_x)) + float(h[-1]),
+                "bin_mass": 2.0 * rho * area,
+                "emptied": initial > 0 and area < self.cfg.geometry.empty_fraction * initial}
+
+    def summary_measures(self) -> dict:
+        """run.json's steady discharge (a bin): the mean and relative standard deviation of Q
+        over the window from the first step where Q reaches 95 % of its largest value (the
+        discharge set up) to the end (or the last step with Q > 0); NaN without outflow."""
+        if not self.bin or not self._discharge:
+            return {}
+        dt, q = np.array(self._discharge).T
+        t = np.cumsum(dt)
+        start = int(np.argmax(q >= 0.95 * q.max()))
+        stop = int(np.nonzero(q > 0)[0][-1]) + 1
+        window = q[start:stop]
+        mean = float(window.mean()) if len(window) else math.nan
+        return {"discharge_steady": mean,
+                "discharge_spread": float(window.std() / mean) if len(window) and mean else math.nan,
+                "discharge_window": [float(t[start] - dt[start]), float(t[stop - 1])]}
 
     def output_functions(self) -> list:
         """c (DG0), u and p (P1), c_L ("layer_fraction", DG0) on the erodible layer, and the
@@ -283,7 +323,9 @@ class TwoPhaseFactory:
 
     def __init__(self, cfg):
         self.cfg = cfg
-        self._domain = adaptive_domain(cfg) if is_adaptive(cfg) else FixedDomain()
+        self.vessel = container(cfg)
+        self._domain = (adaptive_domain(cfg, self.vessel.box) if is_adaptive(cfg)
+                        else FixedDomain())
 
     @classmethod
     def from_config(cls, cfg) -> TwoPhaseFactory:
@@ -295,9 +337,9 @@ class TwoPhaseFactory:
         from dpcollapse.config import MEMORY_PER_CELL, box_cells
         from dpcollapse.models.describe import lines_2d
 
-        m = cfg.model
-        cells = box_cells(m.box_length, m.box_height, cfg.geometry.mesh_size)
-        return lines_2d(cfg, [f"two-phase box {m.box_length:g} x {m.box_height:g} m: about "
+        vessel = container(cfg)
+        cells = box_cells(vessel.length, vessel.height, cfg.geometry.mesh_size)
+        return lines_2d(cfg, [f"two-phase vessel {vessel.length:g} x {vessel.height:g} m: about "
                               f"{cells:.3g} cells (about {cells * MEMORY_PER_CELL / 1e6:.3g} MB)"])
 
     def domain(self) -> FixedDomain | AdaptiveBox:
@@ -306,19 +348,14 @@ class TwoPhaseFactory:
         return self._domain
 
     def _box(self, comm) -> TaggedMesh:
-        """The uniform structured box: cells of ``model.min_cell`` (= ``max_cell``), else of
-        ``geometry.mesh_size`` (today's mesh)."""
-        m = self.cfg.model
-        return box_mesh(comm, m.box_length, m.box_height, cell_sizes(self.cfg)[0])
+        """The scene's vessel meshed uniformly: cells of ``model.min_cell`` (= ``max_cell``),
+        else of ``geometry.mesh_size`` (the box: structured)."""
+        return self.vessel.mesh(comm, cell_sizes(self.cfg)[0])
 
     def _initial(self, tagged) -> TwoPhaseDiscretization:
-        """c of the column (or of the trapezoid on its layer) on ``tagged``, at rest."""
-        disc = TwoPhaseDiscretization(tagged, self.cfg)
-        g = self.cfg.geometry
-        if disc.layer:
-            disc.set_erodible()
-        else:
-            disc.set_column(g.base_length, g.height)
+        """c of the scene's initial region on ``tagged``, at rest."""
+        disc = TwoPhaseDiscretization(tagged, self.cfg, self.vessel)
+        disc.set_initial()
         return disc
 
     def start(self, comm) -> TwoPhaseDiscretization:
@@ -327,8 +364,7 @@ class TwoPhaseFactory:
         finer cells), the exact overlaps set anew on each."""
         if not is_adaptive(self.cfg):
             return self._initial(self._box(comm))
-        m = self.cfg.model
-        disc = self._initial(box_mesh(comm, m.box_length, m.box_height, cell_sizes(self.cfg)[1]))
+        disc = self._initial(self.vessel.mesh(comm, cell_sizes(self.cfg)[1]))
         for _ in range(2):
             tagged = self._domain.mesh_for(comm, disc.fraction)
             disc.destroy()
@@ -338,16 +374,24 @@ class TwoPhaseFactory:
     def rebuild(self, tagged) -> TwoPhaseDiscretization:
         """A discretization on a new mesh of the box (the adaptive remesh); the loop transfers
         the state (``flow.TwoPhaseFlow.transfer``)."""
-        return TwoPhaseDiscretization(tagged, self.cfg)
+        return TwoPhaseDiscretization(tagged, self.cfg, self.vessel)
 
     def save_checkpoint(self, path, disc: TwoPhaseDiscretization, state: dict) -> None:
-        """The mesh, uⁿ, pⁿ, cⁿ and the loop state (collective; rank 0 writes)."""
+        """The mesh, uⁿ, pⁿ, cⁿ and the loop state (collective; rank 0 writes); a bin's
+        outflow so far and its (Δt, Q) history with the loop state."""
+        if disc.bin:
+            state = state | {"outflow_area": disc.fraction.outflow_volume,
+                             "discharge_history": [list(x) for x in disc._discharge]}
         save_model_checkpoint(path, disc.tagged, disc.flow.snapshot(), state)
 
     def load_checkpoint(self, path, comm) -> tuple[TwoPhaseDiscretization, dict]:
         """The box of the config with the checkpoint's fields."""
         tagged, fields, state = load_model_checkpoint(path, comm)
         # the adaptive mesh is the checkpoint's own; the uniform box that of the config
-        disc = TwoPhaseDiscretization(tagged if is_adaptive(self.cfg) else self._box(comm), self.cfg)
+        disc = TwoPhaseDiscretization(tagged if is_adaptive(self.cfg) else self._box(comm), self.cfg,
+                                      self.vessel)
         disc.flow.transfer(fields)
+        if disc.bin:
+            disc.fraction.outflow_volume = float(state.get("outflow_area", 0.0))
+            disc._discharge = [tuple(x) for x in state.get("discharge_history", [])]
         return disc, state

@@ -29,6 +29,7 @@ from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from dpcollapse import compat
+from dpcollapse.domain.fixed import FixedDomain
 from dpcollapse.geometry.mesher import BED, DOMAIN, LEFT, RIGHT, SURFACE, TAG_NAMES, TaggedMesh, gmsh_session
 from dpcollapse.models.two_phase.fraction import owned_triangles
 from dpcollapse.models.two_phase.remap import triangle_areas
@@ -120,34 +121,21 @@ def granular_centroids(fraction, threshold: float) -> np.ndarray:
     return np.concatenate(fraction.comm.allgather(own)).reshape(-1, 2)
 
 
-class AdaptiveBox:
-    """The fixed box whose mesh follows the granular phase (``domain.base.Domain``)."""
-
-    moving = False
+class AdaptiveBox(FixedDomain):
+    """The fixed box whose mesh follows the granular phase (``domain.base.Domain``): nothing
+    moves (``FixedDomain``'s step limit, move, undo and recompute), the mesh is rebuilt."""
 
     def __init__(self, length: float, height: float, size: SizeField, threshold: float,
                  every: int):
+        super().__init__()
         self.length, self.height, self.size = length, height, size
         self.threshold, self.every = threshold, every
-        self.solves = 0
         self._centroids = None
 
     def mesh_for(self, comm, fraction) -> TaggedMesh:
         """A new mesh refined around the granular cells of ``fraction`` (c > threshold)."""
         return adaptive_box(comm, self.length, self.height, self.size,
                             granular_centroids(fraction, self.threshold))
-
-    def limit_step(self, disc, dt: float) -> float:
-        return math.inf
-
-    def recompute(self, disc) -> None:
-        pass
-
-    def move(self, disc, dt: float) -> tuple[None, int]:
-        return None, 0
-
-    def undo(self, disc, token) -> None:
-        pass
 
     def needs_remesh(self, disc, state) -> str | None:
         """A granular cell coarser than REFINED h_min, or ``every`` steps since the last."""

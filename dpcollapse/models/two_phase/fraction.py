@@ -22,7 +22,12 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from dpcollapse import compat
-from dpcollapse.forms.two_phase import compression_flux, fraction_flux, outflow_rate
+from dpcollapse.forms.two_phase import (
+    compression_flux,
+    fraction_flux,
+    outflow_rate,
+    outflow_volume_rate,
+)
 from dpcollapse.models.two_phase.remap import remap
 
 
@@ -54,6 +59,11 @@ class VolumeFraction:
         volume.destroy()
         self._integral = fem.form(self.c * ufl.dx(domain=mesh))
         self._b = None
+        self._outflow = None          # ∫_out (u·n)⁺ c ds of the sub-steps (``watch_outflow``)
+        self.outflow_volume = 0.0     # material that left through the outflow sides [m²]
+        self.pending_outflow = 0.0    # of the step not yet accepted
+        self.step_outflow = (0.0, 0.0)  # (volume, Δt) of the last accepted step
+        self._pending_dt = 0.0
 
     def bind(self, u) -> None:
         """Build the flux and rate forms for the velocity ``u``."""
@@ -68,6 +78,14 @@ class VolumeFraction:
         self._rate = fem.form(outflow_rate(u, v, n, dS, ds, C))
         self._divergence = fem.form(ufl.div(u) * v * ufl.dx(domain=mesh))
         self._b = compat.create_vector(self._flux)
+        self._u = u
+
+    def watch_outflow(self, ds_out) -> None:
+        """Count the material leaving through the sides of the measure ``ds_out`` (after
+        ``bind``): each sub-step adds (Δt/N) ∫_out (u·n)⁺ c ds, exactly what the upwind
+        fluxes take out there, so ∫ c dx + ``outflow_volume`` is conserved to round-off."""
+        n = ufl.FacetNormal(self.mesh)
+        self._outflow = fem.form(outflow_volume_rate(self.work, self._u, n, ds_out))
 
     def set_values(self, owned_values: np.ndarray) -> None:
         """cⁿ of the owned cells (in dof order); ghosts updated."""
@@ -123,17 +141,23 @@ class VolumeFraction:
             steps = max(1, math.ceil(dt * rate / self.courant - 1e-12)) if rate > 0 else 1
         h = dt / steps
         self.work.x.array[:] = self.c.x.array
+        out = 0.0
         for _ in range(steps):
+            if self._outflow is not None:
+                out += h * self.comm.allreduce(fem.assemble_scalar(self._outflow), op=MPI.SUM)
             residual = self._assemble(self._flux)
             self.work.x.array[:self._n] -= h * residual / self.volume
             self.work.x.scatter_forward()
         self.pending = self.work.x.array.copy()
+        self.pending_outflow, self._pending_dt = out, dt
         self.substeps = steps
         return steps
 
     def accept(self) -> None:
         if self.pending is not None:
             self.c.x.array[:] = self.pending
+            self.outflow_volume += self.pending_outflow
+            self.step_outflow = (self.pending_outflow, self._pending_dt)
         self.pending = None
 
     def reject(self) -> None:

@@ -62,10 +62,6 @@ class LayerTracer:
         self._p1 = fem.Function(compat.vector_space(mesh, 1))
         self._vertex_dofs = compat.cell_dofs(self._p1.function_space)[:n]
 
-    def initial_c(self) -> np.ndarray:
-        """c of the owned cells at t = 0: the overlap with layer ∪ mass."""
-        return np.minimum(self.chi + self.mass_fraction, 1.0)
-
     def set_initial(self) -> None:
         """c_L = χ (owned cells; ghosts updated)."""
         c = self.fraction.c
