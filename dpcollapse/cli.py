@@ -573,9 +573,18 @@ def _interrupt(signum, frame):
 
 
 def _interrupt_on_signals() -> None:
-    """SIGINT and SIGTERM raise KeyboardInterrupt (exit 130 with one line)."""
+    """SIGINT and SIGTERM raise KeyboardInterrupt (exit 130 with one line).
+
+    PETSc installs its own handler for them at its initialization (inside ``import
+    dolfinx``), which prints "Caught signal number 15" and aborts with MPI_Abort (exit 15
+    or 59): ``-no_signal_handler`` in ``PETSC_OPTIONS`` (read by PetscInitialize) leaves
+    ours in place (seen on the pip path's PETSc wheel: tests/system/test_faults.py)."""
+    import os
     import signal
 
+    options = os.environ.get("PETSC_OPTIONS", "")
+    if "-no_signal_handler" not in options.split():
+        os.environ["PETSC_OPTIONS"] = f"{options} -no_signal_handler".strip()
     signal.signal(signal.SIGINT, _interrupt)
     signal.signal(signal.SIGTERM, _interrupt)
 
