@@ -434,7 +434,9 @@ class MaterialConfig(_Section):
         "drucker_prager", "", "drucker_prager (constant viscosity) or mu_i (rate-dependent)")
     density: Number = _f(1550.0, "kg/m^3", "Bulk density rho", gt=0)
     viscosity: Number = _f(1.0, "Pa s", "Newtonian viscosity eta (drucker_prager)", ge=0)
-    friction_angle: Number = _f(25.5, "deg", "Internal friction angle; mu_s = tan", gt=0, lt=90)
+    friction_angle: Number = _f(
+        25.5, "deg", "Internal friction angle; mu_s = tan (0: drucker_prager without cohesion is a "
+        "Newtonian fluid of viscosity eta)", ge=0, lt=90)
     gravity: Number = _f(9.81, "m/s^2", "Magnitude g of gravity", gt=0, le=1000)
     cohesion: Number = _f(0.0, "Pa", "Cohesion kappa0: yield stress kappa0 + mu_s p in shear", ge=0)
     friction_angle_2: Number = _f(
@@ -453,6 +455,13 @@ class MaterialConfig(_Section):
 
     @model_validator(mode="after")
     def _mu_order(self) -> MaterialConfig:
+        if self.friction_angle == 0 and self.rheology != "drucker_prager":
+            raise ConfigError(
+                f"material.friction_angle = 0: must be in (0, 90) degrees for {self.rheology} "
+                f"(0 only with drucker_prager: a Newtonian fluid)")
+        if self.friction_angle == 0 and self.cohesion == 0 and self.viscosity == 0:
+            raise ConfigError("material.viscosity = 0: must be > 0 when material.friction_angle "
+                              "and material.cohesion are 0 (a fluid without any stress)")
         if self.rheology == "mu_i" and self.friction_angle_2 <= self.friction_angle:
             raise ConfigError(
                 f"material.friction_angle_2 = {_fmt(self.friction_angle_2)}: must be > "

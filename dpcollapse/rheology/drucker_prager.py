@@ -25,7 +25,8 @@ __all__ = ["DruckerPrager", "frobenius_norm_sq", "positive_part", "strain_rate"]
 class DruckerPrager:
     """σ' = 2η D + κ(p) D/√(|D|²+ε²), κ(p) = √2 (κ0 + μ_s [p]_+), κ0 the cohesion [Pa].
 
-    viscosity: η [Pa s] ≥ 0; friction_coefficient: μ_s = tan(internal friction angle) > 0.
+    viscosity: η [Pa s] ≥ 0; friction_coefficient: μ_s = tan(internal friction angle) ≥ 0
+    (μ_s = κ0 = 0: a Newtonian fluid, σ' = 2η D).
     """
 
     viscosity: float
@@ -51,8 +52,8 @@ class DruckerPrager:
             raise ValueError(f"cohesion must be >= 0, got {self.cohesion}")
         if not (self.viscosity >= 0 and math.isfinite(self.viscosity)):
             raise ValueError(f"viscosity must be >= 0, got {self.viscosity}")
-        if not (self.friction_coefficient > 0 and math.isfinite(self.friction_coefficient)):
-            raise ValueError(f"friction_coefficient must be > 0, got {self.friction_coefficient}")
+        if not (self.friction_coefficient >= 0 and math.isfinite(self.friction_coefficient)):
+            raise ValueError(f"friction_coefficient must be >= 0, got {self.friction_coefficient}")
 
     def yield_stress(self, p):
         """κ(p) = √2 (κ0 + μ_s [p]_+)  [Pa]: in simple shear the yield stress κ0 + μ_s p."""

@@ -2,16 +2,30 @@
 in the bin plus the material that left is the initial material (to round-off)."""
 
 import numpy as np
+import pytest
 from mpi4py import MPI
 
 from dpcollapse.io.diagnostics import read_diagnostics
-from tests.helpers import simulation
+from tests.helpers import paraview_summaries, simulation
 
 #: a 6 cm bin filled to 5 cm, a 2 cm orifice, 5 mm cells (2.5 mm at the orifice), 40 ms
 TINY = ["geometry.width=0.06", "geometry.fill_height=0.05", "geometry.bin_height=0.06",
         "geometry.orifice_width=0.02", "geometry.mesh_size=0.005",
         "geometry.orifice_mesh_size=0.0025", "time.end_time=0.04", "time.output_every=100",
         "time.checkpoint_every=100"]
+
+
+def test_paraview_opens_a_silo_run(tmp_path):
+    """The silo's output opens in ParaView (Xdmf3ReaderT): c and the velocity at every output
+    time, on the half bin [0, W/2] × [0, bin height]."""
+    over = TINY + ["time.end_time=0.02", "time.output_every=10"]
+    summary = simulation("silo.yaml", over, tmp_path, comm=MPI.COMM_SELF).run()
+    assert summary["status"] == "end_time"
+    pv, = paraview_summaries(tmp_path / "solution.xdmf")
+    assert len(pv["times"]) == 3                                   # t = 0, 0.01, 0.02
+    assert "volume_fraction" in pv["cell_arrays"] and "velocity" in pv["point_arrays"]
+    xmin, xmax, ymin, ymax = pv["last"]["bounds"][:4]
+    assert (xmin, xmax, ymin, ymax) == pytest.approx((0.0, 0.03, 0.0, 0.06), abs=1e-9)
 
 
 def test_tiny_silo_discharges_and_conserves_its_material(tmp_path):

@@ -67,3 +67,17 @@ def test_drucker_prager_cohesion_in_simple_shear(square):
         s = law.deviatoric_stress(u, _const(msh, p), 1e-9)
         tau = fem.assemble_scalar(fem.form(s[0, 1] * ufl.dx)) / 0.06
         assert tau == pytest.approx(expected, rel=1e-9)
+
+
+def test_drucker_prager_without_friction_and_cohesion_is_newtonian(square):
+    """μ_s = κ0 = 0: τ = η γ̇ in simple shear, whatever the pressure (a Newtonian fluid)."""
+    msh, _ = square
+    V = compat.vector_space(msh, 2)
+    g, eta = 2.0, 0.7
+    u = fem.Function(V)
+    u.interpolate(lambda x: np.vstack([g * x[1], 0 * x[0]]))
+    law = DruckerPrager(eta, 0.0)
+    for p in (1000.0, -50.0):
+        s = law.deviatoric_stress(u, _const(msh, p), 1e-6)
+        tau = fem.assemble_scalar(fem.form(s[0, 1] * ufl.dx)) / 0.06
+        assert tau == pytest.approx(eta * g, rel=1e-12)

@@ -45,4 +45,5 @@ def test_parameters_are_validated():
     with pytest.raises(ValueError, match="viscosity"):
         DruckerPrager(-1.0, 0.5)
     with pytest.raises(ValueError, match="friction"):
-        DruckerPrager(1.0, 0.0)
+        DruckerPrager(1.0, -0.1)
+    DruckerPrager(1.0, 0.0)   # μ_s = 0: a Newtonian fluid
