@@ -454,7 +454,8 @@ class MaterialConfig(_Section):
         return math.tan(math.radians(self.friction_angle_2))
 
     @model_validator(mode="after")
-    def _mu_order(self) -> MaterialConfig:
+    def _newtonian_limit(self) -> MaterialConfig:
+        """friction_angle = 0: drucker_prager only, and then some stress must remain."""
         if self.friction_angle == 0 and self.rheology != "drucker_prager":
             raise ConfigError(
                 f"material.friction_angle = 0: must be in (0, 90) degrees for {self.rheology} "
@@ -462,6 +463,10 @@ class MaterialConfig(_Section):
         if self.friction_angle == 0 and self.cohesion == 0 and self.viscosity == 0:
             raise ConfigError("material.viscosity = 0: must be > 0 when material.friction_angle "
                               "and material.cohesion are 0 (a fluid without any stress)")
+        return self
+
+    @model_validator(mode="after")
+    def _mu_order(self) -> MaterialConfig:
         if self.rheology == "mu_i" and self.friction_angle_2 <= self.friction_angle:
             raise ConfigError(
                 f"material.friction_angle_2 = {_fmt(self.friction_angle_2)}: must be > "
