@@ -16,7 +16,6 @@ below one cell are not resolved.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import os
 import resource
@@ -25,6 +24,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
+
+from dpcollapse.io.diagnostics import read_diagnostics
 
 ROOT = Path(__file__).resolve().parent.parent
 RUNS = {
@@ -37,7 +38,7 @@ REFERENCE = "dt_0.25ms"
 
 
 def _run(config: str, mesh_size: float, out: Path, sets: list[str]) -> float:
-    """Run (or reuse) one case; its CPU seconds (None when reused)."""
+    """Run (or reuse) one case; its CPU seconds (nan when reused)."""
     done = out / "run.json"
     if done.exists() and json.loads(done.read_text()).get("status") in ("at_rest", "end_time"):
         return float("nan")
@@ -54,9 +55,8 @@ def _run(config: str, mesh_size: float, out: Path, sets: list[str]) -> float:
 
 
 def _history(run: Path):
-    rows = list(csv.DictReader(open(run / "diagnostics.csv")))
-    return (np.array([float(r["t"]) for r in rows]), np.array([float(r["front"]) for r in rows]),
-            np.array([float(r["dt"]) for r in rows]))
+    d = read_diagnostics(run / "diagnostics.csv")
+    return np.array(d["t"]), np.array(d["front"]), np.array(d["dt"])
 
 
 def main() -> int:

@@ -11,7 +11,6 @@ the whole silo; H the fill height at the side wall.
 """
 from __future__ import annotations
 
-import csv
 import json
 import math
 import sys
@@ -27,12 +26,12 @@ import yaml  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from beverloo import cases, fit  # noqa: E402
 
+from dpcollapse.io.diagnostics import read_diagnostics  # noqa: E402
+
 
 def _series(run: Path):
-    rows = list(csv.DictReader(open(run / "diagnostics.csv")))
-    return (np.array([float(r["t"]) for r in rows]),
-            np.array([float(r["discharge_rate"]) for r in rows]),
-            np.array([float(r["fill_height"]) for r in rows]))
+    d = read_diagnostics(run / "diagnostics.csv")
+    return np.array(d["t"]), np.array(d["discharge_rate"]), np.array(d["fill_height"])
 
 
 def _config(run: Path) -> dict:
@@ -90,6 +89,7 @@ def beverloo(coarse: Path, fine: Path, out: Path) -> None:
 
 
 def hopper(runs: Path, out: Path) -> None:
+    out.mkdir(parents=True, exist_ok=True)
     rows = []
     for run in sorted(p.parent for p in runs.rglob("run.json")):
         s = json.loads((run / "run.json").read_text())["summary"]
@@ -111,6 +111,7 @@ def hopper(runs: Path, out: Path) -> None:
 
 
 def friction(runs: Path, out: Path, newtonian: Path | None) -> None:
+    out.mkdir(parents=True, exist_ok=True)
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))
     print("| μ_s | status, t [s] | Q mean [kg/(m s)] | window (H from → to) | std | max, min | Q/√H std |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
