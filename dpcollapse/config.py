@@ -749,9 +749,13 @@ class TwoPhaseModel(_Section):
         "cell is coarser than 1.5 min_cell)", ge=0)
     adaptive_dt: bool = _f(
         False, "", "Limit the step by the flow's Courant number: dt <= step_courant h_K/|u_K| "
-        "over the cells with c > refine_fraction (with time.dt as the largest step)")
+        "over the cells with c > step_fraction (with time.dt as the largest step)")
     step_courant: Number = _f(
         0.5, "", "Courant number of adaptive_dt (cells crossed per step)", gt=0, le=2)
+    step_fraction: Number = _f(
+        0.01, "", "adaptive_dt: only the cells with c above this limit the step (0.5: the "
+        "granular cells, not the light fluid's jets; the advection of c sub-cycles anyway)",
+        gt=0, lt=1)
 
 
 def _name_of(value: Any) -> str:

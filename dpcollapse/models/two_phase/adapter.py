@@ -200,7 +200,7 @@ class TwoPhaseDiscretization:
 
     def max_step(self) -> float:
         """With ``model.adaptive_dt``: Co min_K h_K / |uⁿ_K| over the cells with c >
-        ``model.refine_fraction`` (Co = ``model.step_courant``, h_K the equilateral side of
+        ``model.step_fraction`` (Co = ``model.step_courant``, h_K the equilateral side of
         |K|, |uⁿ_K| at the midpoint); inf at rest and without it (the advection of c
         sub-cycles inside the step)."""
         model = self.cfg.model
@@ -208,7 +208,7 @@ class TwoPhaseDiscretization:
             return math.inf
         self._speed.interpolate(self._speed_expr)
         speed = self._speed.x.array[self._cells]
-        moving = (self.fraction.c.x.array[self._cells] > model.refine_fraction) & (speed > 0)
+        moving = (self.fraction.c.x.array[self._cells] > model.step_fraction) & (speed > 0)
         local = float((self._size[moving] / speed[moving]).min()) if moving.any() else math.inf
         return model.step_courant * self.comm.allreduce(local, op=MPI.MIN)
 
