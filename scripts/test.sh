@@ -26,7 +26,7 @@ xdist=()
 [ "$jobs" != "0" ] && xdist=(-n "$jobs" --dist worksteal)
 
 # The last line pytest prints ("N passed, M skipped in S s"), or a note when there is none.
-closing() { grep -E '^=*[ ]*[0-9]+ (passed|failed|error|skipped|deselected)|no tests ran' "$1" \
+closing() { grep -aE '^=*[ ]*[0-9]+ (passed|failed|error|skipped|deselected)|no tests ran' "$1" \
               | tail -1 | sed -E 's/^=+ //; s/ =+$//'; }
 # pytest's exit 5 is "no test selected" (a -k or -m that matched nothing): not a failure.
 ok() { [ "$1" -eq 0 ] || [ "$1" -eq 5 ]; }
