@@ -97,3 +97,43 @@ def test_resume_on_the_adaptive_mesh(tmp_path):
     for key in ("front", "max_height", "area"):
         assert resumed[key] == pytest.approx(whole[key], rel=1e-9), key
     assert resumed["kinetic_energy"] == pytest.approx(whole["kinetic_energy"], rel=1e-6)
+
+
+def test_step_fraction_keeps_the_light_fluid_out_of_the_step_limit(tmp_path):
+    """model.step_fraction: a haze cell (c = 0.05) in a fast stream of the light fluid
+    (10 m/s there, ~1 m/s at the grains) sets the step limit Co h/|u| at step_fraction = 0.01,
+    and not at 0.9, where only the granular cells count."""
+    import ufl
+    from dolfinx import fem
+
+    from dpcollapse import compat
+
+    limits = {}
+    for fraction in (0.01, 0.9):
+        over = ADAPTIVE + ["model.adaptive_dt=true", "model.step_courant=0.5",
+                           f"model.step_fraction={fraction}"]
+        disc = simulation(CONFIG, over, tmp_path / str(fraction), comm=MPI.COMM_SELF).disc
+        c, cells, size = disc.fraction.c.x.array, disc._cells, disc._size
+        midpoint = fem.Function(disc.fraction.S0)
+        xy = []
+        for axis in (0, 1):
+            midpoint.interpolate(compat.expression(ufl.SpatialCoordinate(disc.flow.mesh)[axis],
+                                                   disc.fraction.S0))
+            xy.append(midpoint.x.array[cells].copy())
+        # the fine light cell of the band farthest from the grains
+        light = np.flatnonzero((c[cells] == 0.0) & (size < 1.5 * FINE))
+        grains = np.flatnonzero(c[cells] > 0.9)
+        gap = np.hypot(xy[0][light, None] - xy[0][None, grains],
+                       xy[1][light, None] - xy[1][None, grains]).min(axis=1)
+        haze = light[np.argmax(gap)]
+        assert gap.max() > 3.0 * FINE
+        c[cells[haze]] = 0.05
+        x0, y0, width = xy[0][haze], xy[1][haze], 1.5 * size[haze]
+        disc.flow.u_old.interpolate(lambda x: np.vstack([
+            1.0 + 9.0 * np.exp(-((x[0] - x0) ** 2 + (x[1] - y0) ** 2) / width ** 2),
+            np.zeros_like(x[0])]))
+        limits[fraction] = disc.max_step()
+        if fraction == 0.01:
+            assert limits[fraction] <= 0.5 * size[haze] / 9.0      # |u| ≈ 10 m/s at the haze
+    assert limits[0.9] > 3.0 * limits[0.01]
+    assert limits[0.9] >= 0.5 * FINE / 10.0
