@@ -30,6 +30,7 @@ import time
 from pathlib import Path
 
 import dpcollapse
+from dpcollapse import parallel
 from dpcollapse.errors import ConfigError, Interrupted
 from dpcollapse.sweep.collect import (
     case_row,
@@ -288,7 +289,8 @@ def mpi_exit_status(code: int) -> int:
     Under ``python -m mpi4py.futures`` a non-zero exit status makes mpi4py call
     ``MPI_Abort`` (and Debian's mpirun 4.1 then crashes in its PMIx clean-up, exit 139).
     So the driver returns 0, lets mpi4py release the worker ranks, and at interpreter exit
-    finalizes MPI itself and exits with ``code``: mpirun then exits with ``code`` too.
+    finalizes MPI itself and exits with ``code`` once the workers of its node have exited
+    (:func:`dpcollapse.parallel.finalize_and_exit`): mpirun then exits with ``code`` too.
     Elsewhere ``code`` is returned unchanged.
     """
     if code == 0 or _futures_lib() is None:
@@ -299,11 +301,7 @@ def mpi_exit_status(code: int) -> int:
         return code
 
     def finish() -> None:
-        sys.stdout.flush()
-        sys.stderr.flush()
-        if MPI.Is_initialized() and not MPI.Is_finalized():
-            MPI.Finalize()
-        os._exit(code)
+        parallel.finalize_and_exit(code)
 
     atexit.register(finish)
     return 0
