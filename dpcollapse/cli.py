@@ -291,8 +291,9 @@ def _validation(name: str, doc: str, quick_help: str) -> None:
     def command(config: Path, out: Path, quick: bool) -> int:
         if not config.is_file():
             raise ConfigError(f"--config = {config}: file not found")
-        shape = load_config(config).geometry.shape
-        if shape != "layer":   # a collapse config ran for minutes and compared nothing
+        geometry = load_config(config).geometry
+        shape = geometry.shape
+        if not geometry.periodic:   # a collapse config ran for minutes and compared nothing
             raise ConfigError(f"--config = {config}: geometry.shape = {shape}; validate {name} "
                               f"needs a periodic layer (geometry.shape = layer), e.g. "
                               f"configs/{name}.yaml")

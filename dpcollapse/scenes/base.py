@@ -112,7 +112,10 @@ class Container:
     union is the material at t = 0 (c = |K ∩ ∪P| / |K|); box: (length, height) when the
     vessel is the rectangle [0, length] × [0, height] (an adaptive box may remesh it), else
     None; floor: y(x) of the vessel's bottom under the side wall's strip, for the fill height
-    floor + ∫ c dy there (None: not a bin).
+    floor + ∫ c dy there (None: not a bin); bed_layer: the convex CCW polygon of an erodible
+    layer of the material on the bed (part of ``fraction_region``; the model tracks its own
+    fraction c_L), None: none; front_floor: fronts count material above this height only
+    (an erodible layer's 2 h_e, as the scene's ``extent``).
     """
 
     mesh: Callable
@@ -122,20 +125,23 @@ class Container:
     height: float
     box: tuple[float, float] | None = None
     floor: Callable | None = None
+    bed_layer: np.ndarray | None = None
+    front_floor: float = 0.0
 
     def of_kind(self, kind: BoundaryKind) -> list[Boundary]:
         return [b for b in self.boundaries if b.kind == kind]
 
 
 def box_container(length: float, height: float, boundaries: tuple[Boundary, ...],
-                  region: tuple[np.ndarray, ...]) -> Container:
+                  region: tuple[np.ndarray, ...], **details) -> Container:
     """The rectangle [0, length] × [0, height] in structured triangles (sides tagged BED,
-    LEFT, RIGHT, SURFACE: ``geometry.layer.structured_rectangle``)."""
+    LEFT, RIGHT, SURFACE: ``geometry.layer.structured_rectangle``); ``details`` the
+    :class:`Container`'s optional fields."""
     def mesh(comm, cell_size):
         nx, ny = max(2, round(length / cell_size)), max(2, round(height / cell_size))
         return structured_rectangle(comm, length, height, nx, ny)
 
-    return Container(mesh, boundaries, region, length, height, box=(length, height))
+    return Container(mesh, boundaries, region, length, height, box=(length, height), **details)
 
 
 def open_box_boundaries(bed: Boundary, left: Boundary) -> tuple[Boundary, ...]:

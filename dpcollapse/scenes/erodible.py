@@ -39,6 +39,9 @@ from dpcollapse.scenes.base import (
     walled_boundaries,
 )
 
+#: fronts count the nodes (cells) more than FRONT_FLOOR h_e above the bed
+FRONT_FLOOR = 2.0
+
 
 @dataclass(frozen=True)
 class ErodibleScene:
@@ -94,7 +97,8 @@ class ErodibleScene:
             left = Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0))
         (layer, _, _), (mass, _, _) = self.regions()
         return box_container(*box, open_box_boundaries(
-            bed_boundary(BED, self.bed_condition, self.mu_bed), left), (layer, mass))
+            bed_boundary(BED, self.bed_condition, self.mu_bed), left), (layer, mass),
+            bed_layer=layer, front_floor=FRONT_FLOOR * self.layer_thickness)
 
     def initial_velocity(self):
         return initial_velocity(self.velocity, self.height + self.layer_thickness,
@@ -104,6 +108,6 @@ class ErodibleScene:
         """(front, maximum height): the furthest x of the nodes above 2 h_e, the highest y."""
         if not len(x):
             return -np.inf, -np.inf
-        above = x[x[:, 1] > 2.0 * self.layer_thickness]
+        above = x[x[:, 1] > FRONT_FLOOR * self.layer_thickness]
         front = float(above[:, 0].max()) if len(above) else -np.inf
         return front, float(x[:, 1].max())

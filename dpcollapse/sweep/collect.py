@@ -14,6 +14,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from dpcollapse.config import GEOMETRIES
 from dpcollapse.sweep.naming import yaml_value
 from dpcollapse.sweep.spec import Case, Sweep
 
@@ -170,7 +171,8 @@ def case_row(sweep: Sweep, out: Path, case: Case) -> dict:
     row.update(front=front, max_height=summary.get("max_height"), t_end=summary.get("t"),
                steps=summary.get("steps"), mean_iterations=summary.get("mean_iterations"),
                wall_time=_total_wall(cs.run) if summary else None)
-    if isinstance(front, (int, float)) and geometry.get("shape", "trapezoid") != "layer":
+    kind = GEOMETRIES.get(geometry.get("shape", "trapezoid"))
+    if isinstance(front, (int, float)) and kind is not None and not kind.periodic:
         row["runout"] = front - geometry.get("base_length", 0.0)
     row["error"] = summary.get("error") or (
         f"exit {cs.exit_code}: {_last_line(log_path(out, case))}" if cs.state == "failed" else "")

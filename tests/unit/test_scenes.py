@@ -88,3 +88,32 @@ def test_mesh_command_writes_the_periodic_layer(tmp_path):
     left = np.sort(x[np.isclose(x[:, 0], 0.0), 1])
     right = np.sort(x[np.isclose(x[:, 0], 0.025), 1])
     np.testing.assert_allclose(left, right, atol=1e-14)
+
+
+def test_no_branching_on_scene_model_or_method_names_outside_the_registries():
+    """The library asks a scene, a model or a method what it can do (``Container``'s fields,
+    ``geometry.periodic``, the registries), never ``shape == "erodible"`` and the like:
+    a new scene or model is then a new file, not edits wherever a name was compared
+    (config.py's tagged unions and the validation/ and studies/ drivers, which require a
+    scene, may)."""
+    import re
+
+    from dpcollapse.models.registry import model_classes, model_factories
+    from dpcollapse.scenes.registry import scene_classes
+
+    names = sorted(set(scene_classes()) | set(model_factories()) | set(model_classes())
+                   | {"picard", "newton"})
+    quoted = "|".join(map(re.escape, names))
+    pattern = re.compile(rf"""(==|!=)\s*["']({quoted})["']|["']({quoted})["']\s*(==|!=)"""
+                         rf"""|\bin\s*[(\[{{]\s*["']({quoted})["']|\bshape\s*(==|!=)\s*["']""")
+    offenders = []
+    for path in (ROOT / "dpcollapse").rglob("*.py"):
+        parts = path.relative_to(ROOT / "dpcollapse").parts
+        if parts[0] in ("validation", "studies", "config.py"):
+            continue
+        for k, line in enumerate(path.read_text().splitlines(), 1):
+            if pattern.search(line):
+                offenders.append(f"{path.relative_to(ROOT)}:{k}: {line.strip()}")
+    assert not offenders, "\n".join(offenders)
+    # the pattern finds what it is for
+    assert pattern.search('if g.shape == "erodible":') and pattern.search("m in ('two_phase', x)")

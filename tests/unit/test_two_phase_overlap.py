@@ -11,8 +11,8 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.config import load_config
 from dpcollapse.errors import ConfigError
+from dpcollapse.scenes.registry import scene
 from dpcollapse.models.two_phase.fraction import owned_triangles
-from dpcollapse.models.two_phase.layer import erodible_polygons
 from dpcollapse.models.two_phase.overlap import (polygon_fraction, rectangle_fraction,
                                                  union_fraction)
 from tests.helpers import ROOT
@@ -77,7 +77,9 @@ def test_layer_and_trapezoid_sum_to_their_area():
     g = cfg.geometry
     mesh = compat.create_rectangle(MPI.COMM_SELF, (0, 0), (1.0, 0.3), (37, 13))
     tri = owned_triangles(mesh)
-    layer, mass = erodible_polygons(g)
+    vessel = scene(cfg).container((1.0, 0.3))
+    layer, mass = vessel.fraction_region
+    assert vessel.bed_layer is layer and vessel.front_floor == pytest.approx(2 * g.layer_thickness)
     c = union_fraction(tri, [layer, mass])
     areas = _areas(tri)
     assert np.dot(c, areas) == pytest.approx(g.area, rel=1e-12)

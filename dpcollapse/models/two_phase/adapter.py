@@ -123,14 +123,13 @@ class TwoPhaseDiscretization:
         self.comm = mesh.comm
         self.flow = flow = make_flow(tagged, cfg, vessel)
         self.fraction = flow.fraction
-        g, model = cfg.geometry, cfg.model
+        model = cfg.model
         fine = cell_sizes(cfg)[0]
         self.film_threshold = film_threshold(law_from_material(cfg.material).grain_scale, fine)
         self.threshold = model.fraction_threshold
-        # the erodible scene: c_L, and the fronts above the layer (2 h_e, as the ALE scene)
-        self.layer = LayerTracer(flow, g) if g.shape == "erodible" else None
-        floor = 2.0 * g.layer_thickness if self.layer else 0.0
-        self.thick_floor = max(self.film_threshold, floor)
+        # a scene with an erodible layer: c_L, and the fronts above the scene's floor
+        self.layer = LayerTracer(flow, vessel.bed_layer) if vessel.bed_layer is not None else None
+        self.thick_floor = max(self.film_threshold, vessel.front_floor)
         if self.layer:
             self.extra_measures = type(self).extra_measures + LAYER_MEASURES
         self.bin = vessel.floor is not None
@@ -145,7 +144,7 @@ class TwoPhaseDiscretization:
         tri = owned_triangles(mesh)
         self._cells = compat.cell_dofs(self.fraction.S0)[:n, 0]
         self._xmax = tri[:, :, 0].max(axis=1)
-        self._above = tri[:, :, 1].mean(axis=1) > floor    # cells counted by the mass front
+        self._above = tri[:, :, 1].mean(axis=1) > vessel.front_floor    # cells counted by the mass front
         self._volume = self.fraction.volume[self._cells] if len(self._cells) else np.zeros(0)
         if is_adaptive(cfg) or vessel.box is None:   # |K ∩ strip_j| (exact: the cells straddle
             # the strips of an unstructured mesh)

@@ -1,11 +1,10 @@
-"""The erodible-bed scene (seed 000, case II) on the two-phase box: the initial c and the
-layer's own fraction c_L, and how much of the layer the collapse sets in motion.
+"""An erodible layer on the two-phase box (the scene's ``Container.bed_layer``, e.g. seed
+000's case II): the layer's own fraction c_L, and how much of the layer the flow sets in motion.
 
-Initial values (exact cell overlaps, ``overlap``): the layer L = the convex polygon
-(0, 0) → (L, 0) → (L − h_e/tan φ_e, h_e) → (0, h_e) of ``geometry.erodible`` (the ALE scene's
-layer: its right end sloped at the angle φ_e), the mass M = the trapezoid of height h0 on it;
-c = |K ∩ (L ∪ M)| / |K| = |K ∩ L|/|K| + |K ∩ M|/|K| (they touch along y = h_e only), and
-c_L = χ_K = |K ∩ L| / |K|. c_L is advected as c is (``flow.TwoPhaseFlow.add_tracer``).
+Initial value (exact cell overlaps, ``overlap``): L = the layer's convex polygon (for the
+erodible scene (0, 0) → (L, 0) → (L − h_e/tan φ_e, h_e) → (0, h_e), its right end sloped at
+φ_e), c_L = χ_K = |K ∩ L| / |K|; c itself comes from the scene's whole ``fraction_region``.
+c_L is advected as c is (``flow.TwoPhaseFlow.add_tracer``).
 
 Measures (A_L = ∫ c_L dx at t = 0; the rule of ``benchmarks/erodible.py`` on the moving mesh,
 the area of the layer's cells whose mean vertex speed |uⁿ| exceeds 1 mm/s, read on c_L):
@@ -25,7 +24,6 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from dpcollapse import compat
-from dpcollapse.geometry.erodible import erodible_regions
 from dpcollapse.models.two_phase.fraction import owned_triangles
 from dpcollapse.models.two_phase.overlap import polygon_fraction
 
@@ -35,29 +33,19 @@ MOVING_SPEED = 1e-3
 MEASURES = ("layer_area", "layer_moving", "layer_outside")
 
 
-def erodible_polygons(geometry) -> tuple[np.ndarray, np.ndarray]:
-    """(layer, mass): the convex polygons (counter-clockwise) of ``geometry.erodible``."""
-    g = geometry
-    (layer, _, _), (mass, _, _) = erodible_regions(g.height, g.base_length, g.flank_angle,
-                                                   g.layer_thickness, g.layer_length,
-                                                   g.layer_end_angle)
-    return layer, mass
-
-
 class LayerTracer:
-    """c_L on the box (a tracer of ``flow``), its initial χ and the layer measures."""
+    """c_L on the box (a tracer of ``flow``), its initial χ and the layer measures;
+    ``layer`` the layer's convex CCW polygon (m, 2)."""
 
-    def __init__(self, flow, geometry):
+    def __init__(self, flow, layer: np.ndarray):
         self.flow, self.comm = flow, flow.comm
         self.fraction = flow.add_tracer("layer_fraction")
         mesh = flow.mesh
         n = compat.num_owned_cells(mesh)
         self._cells = compat.cell_dofs(self.fraction.S0)[:n, 0]
         self._volume = self.fraction.volume[self._cells] if n else np.zeros(0)
-        self.layer, self.mass = erodible_polygons(geometry)
-        tri = owned_triangles(mesh)
-        self.chi = polygon_fraction(tri, self.layer)                 # χ_K of the owned cells
-        self.mass_fraction = polygon_fraction(tri, self.mass)
+        self.layer = layer
+        self.chi = polygon_fraction(owned_triangles(mesh), layer)     # χ_K of the owned cells
         self.initial_area = self.comm.allreduce(float(np.dot(self.chi, self._volume)), op=MPI.SUM)
         self._p1 = fem.Function(compat.vector_space(mesh, 1))
         self._vertex_dofs = compat.cell_dofs(self._p1.function_space)[:n]
