@@ -29,11 +29,14 @@ class Discretization(Protocol):
     explicit stage bound cut it; accept_step, reset_iterate, snapshot/transfer,
     copy_state_from, ``iteration_scale``). ``solver_counts()`` gives the counters of its
     solvers by run.json name (flow_factorizations, krylov_iterations, newton_fallbacks; none
-    for a model that solves no linear system). ``measures()`` returns at least front, thick_front, max_height [m], kinetic_energy,
-    gravity_moment [J/m], area [m²], max_speed [m/s], min_angle [deg], min_detJ,
-    ill_posed_fraction (NaN where the model has none), the ``extra_measures`` (extra
-    diagnostics columns and run.json entries) and optionally ``at_rest`` (the state is an
-    exact rest state: the run stops once max |u| < time.rest_speed)."""
+    for a model that solves no linear system). ``measures()`` returns at least front,
+    thick_front, max_height [m], kinetic_energy, gravity_moment [J/m], area [m²], max_speed
+    [m/s], the model's own ``extra_measures`` (its diagnostics columns and run.json entries:
+    the 2D model's mesh quality min_angle [deg], min_detJ and μ(I)'s ill_posed_fraction, the
+    depth-averaged wet_front, the two-phase fraction bounds …) and optionally ``at_rest``
+    (the state is an exact rest state: the run stops once max |u| < time.rest_speed).
+    ``summary_measures()``: run.json entries computed over the whole run (the silo's
+    steady discharge), {} for none."""
 
     flow: object
     mesh: object
@@ -45,6 +48,8 @@ class Discretization(Protocol):
     def measures(self) -> dict: ...
 
     def solver_counts(self) -> dict[str, int]: ...
+
+    def summary_measures(self) -> dict: ...
 
     def area(self) -> float: ...
 

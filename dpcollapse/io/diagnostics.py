@@ -8,7 +8,7 @@ from pathlib import Path
 
 COLUMNS = [
     "step", "t", "dt", "dt_limit", "courant", "iterations", "residual", "front", "max_height", "kinetic_energy",
-    "area", "max_speed", "min_angle", "min_detJ", "ill_posed_fraction", "remeshes", "wall_time",
+    "area", "max_speed", "remeshes", "wall_time",
     "thick_front", "landings",
 ]
 

@@ -188,7 +188,6 @@ class SavageHutterDiscretization:
                                                  - 0.5 * self._g_cos * h * h) * dx),
             "area": self.area(),
             "max_speed": float(np.max(np.abs(u))),
-            "min_angle": math.nan, "min_detJ": math.nan, "ill_posed_fraction": math.nan,
             "wet_front": float(wet_front_position(h, grid, self.model.h_dry)),
             "outflow": flow.outflow,
             "at_rest": flow.fixed_point,
@@ -199,6 +198,10 @@ class SavageHutterDiscretization:
         self.out_thickness.x.array[self._dofs] = self.flow.h[self._index]
         self.out_velocity.x.array[self._dofs] = self.flow.velocity()[self._index]
         return [self.out_thickness, self.out_velocity]
+
+    def summary_measures(self) -> dict:
+        """No run.json entries beyond the per-step measures."""
+        return {}
 
     def solver_counts(self) -> dict[str, int]:
         """An explicit scheme: no linear solver, no counters."""

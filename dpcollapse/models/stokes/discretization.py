@@ -80,7 +80,9 @@ class StokesDiscretization:
     """Everything that lives on one mesh: the flow, the mesh motion, outputs, integrals."""
 
     #: measures beyond the shared ones (``loop``): none
-    extra_measures = ()
+    #: the smallest cell angle [deg] and Jacobian determinant of the moving mesh, and μ(I)'s
+    #: ill-posed fraction (NaN for rate-independent laws)
+    extra_measures = ("min_angle", "min_detJ", "ill_posed_fraction")
 
     def __init__(self, tagged: TaggedMesh, cfg: Config):
         self.tagged = tagged
@@ -242,6 +244,10 @@ class StokesDiscretization:
             fields.append(function)
         fields.extend(self.out_extra.interpolated())
         return fields
+
+    def summary_measures(self) -> dict:
+        """No run.json entries beyond the per-step measures."""
+        return {}
 
     def solver_counts(self) -> dict[str, int]:
         return self.flow.solver_counts()

@@ -251,7 +251,6 @@ class TwoPhaseDiscretization:
             "gravity_moment": self.comm.allreduce(fem.assemble_scalar(self._gravity_moment), op=MPI.SUM),
             "area": self.area(),
             "max_speed": self.comm.allreduce(float(speed.max()) if len(speed) else 0.0, op=MPI.MAX),
-            "min_angle": math.nan, "min_detJ": math.nan, "ill_posed_fraction": math.nan,
             "wall_height": float(h[0]),
             "fraction_min": lo, "fraction_max": hi,
             "substeps": self.fraction.substeps,
