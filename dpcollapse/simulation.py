@@ -11,7 +11,9 @@ limit) and the checkpoints. Each step n → n+1 (seed 000's update algorithm):
    half its area and no free-surface node more than half its height above the bed); with
    ``time.adaptive`` also Δt ≤ cfl·min_K h_K/max_K |uⁿ| (the Courant bound); the model's
    own limit (an explicit scheme's CFL and positivity bound; none for the 2D flow);
-3. the domain moves by Δt·wⁿ, the model solves its step for (u^{n+1}, p^{n+1});
+3. the domain moves by Δt·wⁿ (a move that changes the boundary's tags, e.g. front nodes
+   landing on the bed, gives a new discretization on the same mesh), the model solves its
+   step for (u^{n+1}, p^{n+1});
    if it fails, undo the move and halve Δt down to ``time.dt_min``;
 4. record diagnostics; write XDMF/checkpoint every N steps; stop at rest (max |u| below
    ``time.rest_speed`` for ``time.rest_duration``, or a model's exact rest state) or end time.
@@ -43,9 +45,7 @@ import numpy as np
 from mpi4py import MPI
 
 from dpcollapse import compat, parallel
-from dpcollapse.ale.motion import quality, retag_landed
 from dpcollapse.config import Config, config_to_dict, save_config
-from dpcollapse.domain import moving
 from dpcollapse.errors import ConfigError, ConvergenceError, Interrupted, MeshError
 from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.io.checkpoint import previous_path
@@ -236,7 +236,7 @@ class Simulation:
 
     def _remesh(self, reason: str) -> None:
         t0 = time.perf_counter()
-        cfg, old = self.cfg, self.disc
+        old = self.disc
         area_before = old.area()
         cells_before = self.comm.allreduce(compat.num_owned_cells(old.mesh), op=MPI.SUM)
         fields = old.flow.snapshot()
@@ -250,13 +250,7 @@ class Simulation:
         self.state.last_remesh_step = self.state.step
         if self.controller is not None:   # the new mesh has no history: no estimate for 2 steps
             self.controller.forget()
-        angle_after = quality(self.disc.mesh)["min_angle"]
-        self.state.remesh_angle_after = angle_after
-        if angle_after < cfg.numerics.remesh_min_angle:
-            log.warning("remesh %d: the new mesh's smallest angle is %.1f° (< %g°, set by the "
-                        "boundary); the next remesh waits until it drops below %.1f°",
-                        self.state.remeshes, angle_after, cfg.numerics.remesh_min_angle,
-                        moving.REMESH_DEGRADATION * angle_after)
+        self.domain.remeshed(self.disc, self.state)
         self.timings["remesh"] += time.perf_counter() - t0
 
         log.info("remesh %d at t = %.4f s (%s): area %.8e -> %.8e m² (%+.2e rel), cells %d -> %d, "
@@ -348,10 +342,10 @@ class Simulation:
         spent = 0  # iterations of failed attempts of this step (they cost as much)
         error = None   # the local error estimate of the accepted step (time.tolerance)
         while True:
-            token, landed = domain.move(self.disc, dt)
+            token, retagged, landed = domain.move(self.disc, dt)
             before_landing = self.disc
-            if landed:
-                self._rebuild(retag_landed(self.disc.tagged))
+            if retagged is not None:
+                self._rebuild(retagged)
             t0 = time.perf_counter()
             report = self.disc.flow.solve_step(dt)
             self.timings["solve"] += time.perf_counter() - t0

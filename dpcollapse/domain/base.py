@@ -20,8 +20,10 @@ class Domain(Protocol):
     def recompute(self, disc, dt: float | None = None) -> None:
         """Redo what ``limit_step`` prepared, for a retried (shorter) step."""
 
-    def move(self, disc, dt: float) -> tuple[object, int]:
-        """Move the mesh over ``dt``: (what ``undo`` needs, number of nodes that landed)."""
+    def move(self, disc, dt: float) -> tuple[object, object, int]:
+        """Move the mesh over ``dt``: (what ``undo`` needs, the mesh with new facet tags when
+        the move changed a boundary's extent (the moving domain: front nodes that landed on
+        the bed) else None, the number of nodes that changed boundary)."""
 
     def undo(self, disc, token) -> None:
         """Take back ``move``."""
@@ -31,6 +33,10 @@ class Domain(Protocol):
 
     def remesh(self, tagged, area0: float):
         """A new mesh of the current boundary: (tagged mesh, boundary vertices)."""
+
+    def remeshed(self, disc, state) -> None:
+        """After a remesh onto ``disc``: the domain's own checks and state (the moving
+        domain: the angle the new mesh reached, for the next remesh criterion)."""
 
 
 def make_domain(cfg) -> Domain:

@@ -17,8 +17,8 @@ class FixedDomain:
     def recompute(self, disc, dt: float | None = None) -> None:
         pass
 
-    def move(self, disc, dt: float) -> tuple[None, int]:
-        return None, 0
+    def move(self, disc, dt: float) -> tuple[None, None, int]:
+        return None, None, 0
 
     def undo(self, disc, token) -> None:
         pass
@@ -28,3 +28,6 @@ class FixedDomain:
 
     def remesh(self, tagged, area0: float):
         raise NotImplementedError("a fixed domain is never remeshed")
+
+    def remeshed(self, disc, state) -> None:
+        pass

@@ -10,9 +10,10 @@ so that the same mesh is not rebuilt every REMESH_COOLDOWN steps.
 
 from __future__ import annotations
 
+import logging
 import math
 
-from dpcollapse.ale.motion import quality
+from dpcollapse.ale.motion import quality, retag_landed
 from dpcollapse.domain.region_remesh import remesh_regions
 from dpcollapse.errors import MeshError
 
@@ -24,6 +25,8 @@ REMESH_COOLDOWN = 5
 #: After a remesh that left an angle below the threshold, remesh again only when the
 #: smallest angle has dropped below this fraction of the angle the remesh left.
 REMESH_DEGRADATION = 0.9
+
+log = logging.getLogger("dpcollapse")
 
 
 class MovingDomain:
@@ -54,8 +57,10 @@ class MovingDomain:
         self.solves += 1
 
     def move(self, disc, dt: float):
-        """x ← x + Δt w: (old coordinates, nodes that landed on the bed)."""
-        return disc.motion.move(dt)
+        """x ← x + Δt w: (old coordinates, the mesh with the facets of front nodes that landed
+        on the bed retagged as bed (``ale.motion.retag_landed``) or None, nodes landed)."""
+        old_x, landed = disc.motion.move(dt)
+        return old_x, (retag_landed(disc.tagged) if landed else None), landed
 
     def undo(self, disc, old_x) -> None:
         disc.mesh.geometry.x[:] = old_x
@@ -82,3 +87,13 @@ class MovingDomain:
         except ValueError as exc:   # the boundary is no longer one closed loop
             raise MeshError(f"mesh degenerate: cannot remesh, {exc}") from exc
         return new, nverts
+
+    def remeshed(self, disc, state) -> None:
+        """Record the smallest angle the new mesh reached (``state.remesh_angle_after``);
+        below ``remesh_min_angle`` (set by a sharp boundary corner) say so: the next remesh
+        then waits until the angle drops below REMESH_DEGRADATION × it."""
+        after = state.remesh_angle_after = quality(disc.mesh)["min_angle"]
+        if after < self.remesh_min_angle:
+            log.warning("remesh %d: the new mesh's smallest angle is %.1f° (< %g°, set by the "
+                        "boundary); the next remesh waits until it drops below %.1f°",
+                        state.remeshes, after, self.remesh_min_angle, REMESH_DEGRADATION * after)

@@ -92,7 +92,7 @@ def test_domains_implement_the_protocol():
         assert all(hasattr(cls, n) or n == "solves" for n in names), cls
     fixed = make_domain(load_config(ROOT / "configs/plug.yaml"))
     assert isinstance(fixed, FixedDomain) and not fixed.moving
-    assert fixed.limit_step(None, 1e-3) == math.inf and fixed.move(None, 1e-3) == (None, 0)
+    assert fixed.limit_step(None, 1e-3) == math.inf and fixed.move(None, 1e-3) == (None, None, 0)
     assert fixed.needs_remesh(None, LoopState()) is None
     moving = make_domain(load_config(ROOT / "configs/rigid.yaml"))
     assert isinstance(moving, MovingDomain) and moving.moving and moving.mesh_size == 0.01
