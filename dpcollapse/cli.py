@@ -454,14 +454,18 @@ def stability(scene: str, quick: bool, config: Path | None, out: Path | None, me
               help="Only the Savage-Hutter side of CASE at dx = 4, 2, 1, 0.5 mm.")
 @click.option("--shallow", is_flag=True,
               help="The shallow limit: the aspect-ratio family (ladder_shallow.csv/.png).")
+@click.option("--two-phase", "two_phase", is_flag=True,
+              help="Add the two-phase rung to the cases already in the CSV (ladder_two_phase.png).")
 def ladder(quick: bool, out: Path, work: Path, only: tuple[str, ...], redo: bool, plot_only: bool,
-           sh_case: str | None, shallow: bool) -> int:
-    """The model ladder: each scene with the 2D model and with Savage-Hutter, runout,
-    deposit height and cost side by side (docs/ladder.md)."""
+           sh_case: str | None, shallow: bool, two_phase: bool) -> int:
+    """The model ladder: each scene with the 2D model and with Savage-Hutter (and with
+    --two-phase the two-phase model), runout, deposit height and cost side by side
+    (docs/ladder.md)."""
     _setup_logging(quiet=True)
     echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
     return _lazy("dpcollapse.studies.ladder", "run")(
-        quick, out, work, list(only) or None, redo, plot_only, sh_case, echo=echo, shallow=shallow)
+        quick, out, work, list(only) or None, redo, plot_only, sh_case, echo=echo, shallow=shallow,
+        two_phase=two_phase)
 
 
 @cli.command()

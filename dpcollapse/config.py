@@ -164,7 +164,7 @@ class TrapezoidGeometry(_Geometry):
     """A trapezoid against a left wall on the bed inclined by ``bed_angle`` (collapse, seed
     000 case b)."""
 
-    models: ClassVar[tuple[str, ...]] = ("stokes", "savage_hutter")
+    models: ClassVar[tuple[str, ...]] = ("stokes", "savage_hutter", "two_phase")
 
     shape: Literal["trapezoid"] = _f(
         "trapezoid", "", "Shape of the initial mass: trapezoid against a wall, layer periodic "

@@ -11,12 +11,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
+from dpcollapse.geometry.mesher import BED, LEFT
 from dpcollapse.geometry.trapezoid import trapezoid_polygon
 from dpcollapse.scenes.base import (
     walled_boundaries,
     Boundary,
+    BoundaryKind,
+    Container,
     PolygonScene,
+    bed_boundary,
+    box_container,
     initial_velocity,
+    open_box_boundaries,
     top_extent,
 )
 
@@ -49,6 +57,17 @@ class TrapezoidScene(PolygonScene):
 
     def boundaries(self) -> tuple[Boundary, ...]:
         return walled_boundaries(self.bed_condition, self.mu_bed, self.mu_wall)
+
+    def container(self, box) -> Container:
+        """The trapezoid in the box (two-phase model): the bed y = 0, the wall x = 0 with
+        Coulomb friction μ_l on p as on the moving mesh (frictionless slip when μ_l = 0)."""
+        if self.mu_wall > 0:
+            left = Boundary(LEFT, "wall", BoundaryKind.COULOMB, (-1.0, 0.0), friction=self.mu_wall)
+        else:
+            left = Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0))
+        region = np.asarray(self.polygon()[0], dtype=float)   # convex, counter-clockwise
+        return box_container(*box, open_box_boundaries(
+            bed_boundary(BED, self.bed_condition, self.mu_bed), left), (region,))
 
     def initial_velocity(self):
         return initial_velocity(self.velocity, self.height, self.surface_speed)

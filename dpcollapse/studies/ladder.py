@@ -85,6 +85,9 @@ COLUMNS = [
     "k_act", "k_pass", "status_sh_k", "cpu_sh_k", "runout_sh_k", "height_sh_k", "runout_diff_k",
     "height_diff_k", "k_rankine", "status_sh_ka", "runout_sh_ka", "height_sh_ka",
     "runout_diff_ka", "height_diff_ka",
+    # the two-phase rung (``dpcollapse ladder --two-phase``): the same scene in a fixed box
+    "status_tp", "t_end_tp", "steps_tp", "cell_tp", "cpu_tp_s", "wall_tp_s", "front_stop_tp",
+    "runout_tp", "height_tp", "runout_diff_tp", "height_diff_tp", "max_speed_tp", "ritter_speed",
 ]
 
 
@@ -212,6 +215,55 @@ def sh_problem(cfg: Config, dx: float, x_max: float | None = None, order: int = 
     return setup.model, setup.grid, setup.vertices, setup.friction
 
 
+# ----------------------------------------------------------------------------- config → two-phase
+#: The two-phase rung's cells in and around the grains: at most the 2D rung's mesh size and at
+#: least this many across L0 (the column: L0/16 = 4.4 mm; the trapezoid: the 2D 1 cm).
+TWO_PHASE_CELLS_ACROSS_L0 = 16
+#: … and in the --quick ladder (the test)
+TWO_PHASE_CELLS_ACROSS_L0_QUICK = 4
+#: Its cells far out in the light fluid (the adaptive box grades between) [m].
+TWO_PHASE_MAX_CELL = 0.05
+#: The light fluid's circulation keeps the two-phase deposits from meeting the rest rule
+#: (issue 27): the run goes on to max(TWO_PHASE_MIN_END, TWO_PHASE_END_FACTOR × the 2D rung's
+#: time at rest), at most TWO_PHASE_MAX_END, and the front's stopping time is read from it.
+TWO_PHASE_MIN_END, TWO_PHASE_END_FACTOR, TWO_PHASE_MAX_END = 1.0, 2.0, 3.0
+#: The front counts as stopped from the time after which it stays within this of its end [m].
+TWO_PHASE_FRONT_STILL = 1e-3
+
+
+def two_phase_config(cfg: Config, grid: Grid, end_time: float,
+                     cells_across: int = TWO_PHASE_CELLS_ACROSS_L0) -> Config:
+    """The same scene and material on the two-phase model (``model.name: two_phase``): the
+    box [0, x_max of the depth-averaged grid] × [0, H0 + max(H0/4, 8 cells)], an adaptive mesh
+    of cells ``min(mesh_size, L0/cells_across)`` around the grains and ``TWO_PHASE_MAX_CELL`` far away,
+    the Courant step of the grains (``model.adaptive_dt``, Δt ≤ 5 ms), the converged Picard
+    fixed point of every step (the 2D rung's ``numerics``)."""
+    g = cfg.geometry
+    cell = min(g.mesh_size, g.base_length / cells_across)
+    height = g.height + max(0.25 * g.height, 8.0 * cell)
+    return with_overrides(cfg, [
+        "model.name=two_phase", "numerics.ale=false", f"model.box_length={grid.x_max!r}",
+        f"model.box_height={height!r}", f"model.min_cell={cell!r}",
+        f"model.max_cell={TWO_PHASE_MAX_CELL!r}", "model.adaptive_dt=true", "time.dt=5e-3",
+        f"time.end_time={end_time!r}"])
+
+
+def two_phase_end(row: dict) -> float:
+    """The two-phase rung's end time from the 2D rung's row: the 2D end time where the 2D run
+    stopped there (compared at the same time), else from its time at rest."""
+    if str(row["status_2d"]).startswith("end_time"):
+        return float(row["t_end_2d"])
+    return min(TWO_PHASE_MAX_END, max(TWO_PHASE_MIN_END, TWO_PHASE_END_FACTOR * float(row["t_end_2d"])))
+
+
+def front_stop_time(t: np.ndarray, front: np.ndarray, still: float = TWO_PHASE_FRONT_STILL) -> float:
+    """The first time after which |front − front(end)| ≤ ``still`` for good (NaN: no rows)."""
+    if not len(t):
+        return math.nan
+    moving = np.nonzero(np.abs(front - front[-1]) > still)[0]   # never the last row
+    return float(t[moving[-1] + 1]) if len(moving) else float(t[0])
+
+
 # ----------------------------------------------------------------------------- runs
 @dataclass
 class Rung:
@@ -253,6 +305,63 @@ def run_2d(cfg: Config, run_dir: Path, grid: Grid) -> Rung:
                 h=polygon_cell_averages(poly, grid), front_history=history,
                 extra={"remeshes": summary.get("remeshes", 0), "area_drift": summary["area_drift"],
                        "front_mesh": float(np.max(poly[:, 0]))})
+
+
+def run_two_phase(cfg: Config, run_dir: Path, grid: Grid) -> Rung:
+    """The two-phase run of a ``two_phase_config``; its deposit h(x) = ∫ c dy of the box's
+    columns of cells, interpolated to the depth-averaged grid; a failure is a result."""
+    from dpcollapse.errors import ConvergenceError, MeshError
+    from dpcollapse.io.diagnostics import read_diagnostics
+    from dpcollapse.simulation import Simulation
+
+    if run_dir.exists():
+        shutil.rmtree(run_dir)
+    t0, c0 = time.perf_counter(), time.process_time()
+    sim = Simulation(cfg, run_dir, quiet=True)
+    try:
+        status = sim.run()["status"]
+    except (ConvergenceError, MeshError) as exc:
+        status = f"failed: {exc}"
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    columns = sim.disc.thickness()
+    centers = (np.arange(len(columns)) + 0.5) * sim.disc.dx_bin
+    diag = read_diagnostics(run_dir / "diagnostics.csv")
+    t, front = np.asarray(diag.get("t", [])), np.asarray(diag.get("front", []))
+    history = np.column_stack([np.r_[0.0, t], np.r_[cfg.geometry.base_length, front]])
+    return Rung(status=status, t_end=float(sim.state.t), steps=int(sim.state.step), wall=wall,
+                cpu=cpu, h=np.interp(grid.centers, centers, columns, right=0.0),
+                front_history=history,
+                extra={"front_stop": front_stop_time(t, front),
+                       "max_speed": float(np.max(diag["max_speed"])) if len(t) else math.nan,
+                       "cell": cfg.model.min_cell})
+
+
+def two_phase_rung(case: Case, row: dict, work: Path, dx: float,
+                   cells_across: int = TWO_PHASE_CELLS_ACROSS_L0) -> tuple[dict, list[tuple]]:
+    """The two-phase rung of a case whose 2D and depth-averaged rungs are in ``row``:
+    (CSV columns, series rows). The peak speed of the granular cells is set against
+    Ritter's inviscid front speed 2 √(g H0) (an upper bound for a frictional collapse)."""
+    cfg = case.load()
+    _, grid, _, _ = sh_problem(cfg, dx, case.sh_x_max)
+    tp = run_two_phase(two_phase_config(cfg, grid, two_phase_end(row), cells_across),
+                       work / f"{case.name}_tp", grid)
+    l0 = cfg.geometry.base_length
+    runout = front_position(tp.h, grid, FRONT_THRESHOLD) - l0
+    height = float(tp.h.max())
+    status = tp.status
+    if tp.h[-1] > 1e-6:
+        status += f" (reached x_max = {grid.x_max:g} m: not comparable)"
+    g = cfg.geometry
+    cols = {"status_tp": status, "t_end_tp": tp.t_end, "steps_tp": tp.steps,
+            "cell_tp": tp.extra["cell"], "cpu_tp_s": tp.cpu, "wall_tp_s": tp.wall,
+            "front_stop_tp": tp.extra["front_stop"], "runout_tp": runout, "height_tp": height,
+            "runout_diff_tp": _rel(runout, row["runout_2d"]),
+            "height_diff_tp": _rel(height, row["height_2d"]), "max_speed_tp": tp.extra["max_speed"],
+            "ritter_speed": 2.0 * math.sqrt(cfg.material.gravity * math.cos(math.radians(g.bed_angle))
+                                            * g.height)}
+    series = [(case.name, "tp", "front", t, x) for t, x in tp.front_history]
+    series += [(case.name, "tp", "profile", x, h) for x, h in zip(grid.centers, tp.h)]
+    return cols, series
 
 
 def run_sh(model: SavageHutter, grid: Grid, poly, end_time: float) -> Rung:
@@ -520,6 +629,87 @@ def k_table(rows: list[dict]) -> str:
             f"{100 * r['height_diff']:+.1f} / {100 * r['height_diff_k']:+.1f} / {100 * r['height_diff_ka']:+.1f} % | "
             f"{str(r['status_sh_k'])[:40]} | {r['cpu_sh_k']:.2f} |")
     return "\n".join(lines)
+
+
+def tp_table(rows: list[dict]) -> str:
+    """Markdown: the two-phase rung against the 2D one (and the depth-averaged, K = 1)."""
+    lines = ["| case | cells [mm] | ΔL 2D / two-phase / SH [m] | Δ runout two-phase | "
+             "H_f 2D / two-phase [m] | Δ H_f | front stops at [s] (2D at rest) | peak speed / "
+             "2√(gH0) | CPU 2D / two-phase [s] | two-phase status |",
+             "| " + " | ".join(["---"] * 10) + " |"]
+    for r in rows:
+        if not isinstance(r.get("runout_tp"), float):
+            if str(r.get("status_tp", "")).startswith("refused"):
+                lines.append(f"| {r['case']} | – | – | – | – | – | – | – | – | {r['status_tp']} |")
+            continue
+        lines.append(
+            f"| {r['case']} | {1e3 * r['cell_tp']:.1f} | {r['runout_2d']:.4f} / {r['runout_tp']:.4f} / "
+            f"{r['runout_sh']:.4f} | {100 * r['runout_diff_tp']:+.1f} % | {r['height_2d']:.4f} / "
+            f"{r['height_tp']:.4f} | {100 * r['height_diff_tp']:+.1f} % | {r['front_stop_tp']:.2f} "
+            f"({r['t_end_2d']:.2f}) | {r['max_speed_tp']:.2f} / {r['ritter_speed']:.2f} m/s | "
+            f"{r['cpu_2d_s']:.0f} / {r['cpu_tp_s']:.0f} | {str(r['status_tp'])[:40]} |")
+    return "\n".join(lines)
+
+
+def plot_two_phase(rows: list[dict], series: dict, path: Path) -> None:
+    """ladder_two_phase.png: runout and deposit height of the two-phase rung against the 2D
+    one (columns: against a), fronts against time, and the deposits of three columns."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    ax = axes[0]
+    for group, marker, label in (("column", "o", "Drucker–Prager, Coulomb bed"),
+                                 ("mu_i", "s", "μ(I)")):
+        sel = sorted((r for r in rows if r["group"] == group and isinstance(r.get("runout_tp"), float)),
+                     key=lambda r: r["param"])
+        if not sel:
+            continue
+        a = [r["param"] for r in sel]
+        ax.plot(a, [100 * r["runout_diff_tp"] for r in sel], marker + "-", color=colors[0],
+                label=f"runout, {label}")
+        ax.plot(a, [100 * r["height_diff_tp"] for r in sel], marker + "--", color=colors[1],
+                label=f"H_f, {label}")
+        ax.plot(a, [100 * r["runout_diff"] for r in sel], marker + ":", color=colors[2],
+                label=f"runout SH (K = 1), {label}")
+    ax.axhspan(-100 * WITHIN, 100 * WITHIN, color="0.85", zorder=0)
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_xlabel("column aspect ratio a = H0/L0")
+    ax.set_ylabel("(rung − 2D)/2D [%]")
+    ax.set_title("two-phase (and depth-averaged) against the 2D moving mesh", fontsize=9)
+    ax.legend(fontsize=7)
+    ax = axes[1]
+    names = [n for n in ("column_a2", "column_a2_mui", "rigid", "column_a6") if n in
+             {r["case"] for r in rows if isinstance(r.get("runout_tp"), float)}]
+    by = {r["case"]: r for r in rows}
+    for i, name in enumerate(names):
+        for rung, style, label in (("2d", "-", "2D"), ("tp", "--", "two-phase")):
+            s = series.get((name, rung, "front"))
+            if s is not None:
+                ax.plot(s[:, 0], s[:, 1] - _l0(by[name]), style, color=colors[i], label=f"{name} {label}")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("front − L0 [m]")
+    ax.set_title("fronts (2D: mesh tip; two-phase: cells with c > ½)", fontsize=9)
+    ax.legend(fontsize=7)
+    ax = axes[2]
+    for i, name in enumerate(names):
+        for rung, style, label in (("2d", "-", "2D"), ("tp", "--", "two-phase"), ("sh", ":", "SH")):
+            s = series.get((name, rung, "profile"))
+            if s is not None:
+                ax.plot(s[:, 0], s[:, 1], style, color=colors[i], label=f"{name} {label}")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("final thickness h [m]")
+    ax.set_xlim(left=0)
+    ax.set_title("deposits", fontsize=9)
+    ax.legend(fontsize=6)
+    for ax in axes.flat:
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 # ----------------------------------------------------------------------------- shallow limit
@@ -807,8 +997,12 @@ def sh_resolution(case: Case, end_time: float | None = None) -> list[dict]:
 
 # ----------------------------------------------------------------------------- main
 def run(quick=False, out="runs/ladder", work="runs/ladder", only=None, redo=False, plot_only=False,
-        sh_case=None, echo=print, shallow=False) -> int:
+        sh_case=None, echo=print, shallow=False, two_phase=False) -> int:
     """Run the plan (skipping cases already in the CSV), write the CSVs, the chart, the table.
+
+    ``two_phase``: add the two-phase rung (``two_phase_rung``) to every case of the plan
+    whose 2D rung is in the CSV and that has none yet (``redo``: again), except the 2D
+    resolution variants; then ladder_two_phase.png and its table.
 
     ``sh_case``: only the Savage–Hutter side of that case at Δx = 4, 2, 1, 0.5 mm.
     ``shallow``: the ε family (``shallow_plan``) into OUT/ladder_shallow.csv, …_series.csv and
@@ -848,6 +1042,27 @@ def run(quick=False, out="runs/ladder", work="runs/ladder", only=None, redo=Fals
         wanted = not only or case.name in only
         if plot_only or not wanted:
             continue
+        if two_phase:
+            if case.group == "resolution":
+                continue
+            if not fresh:
+                echo(f"{case.name}: no 2D rung in {out / (stem + '.csv')}: run the ladder first")
+                continue
+            if isinstance(old.get("runout_tp"), float) and not redo:
+                continue
+            echo(f"{case.name}: two-phase rung ({case.config} {' '.join(case.overrides)})")
+            try:
+                cols, more = two_phase_rung(case, old, work, dx, TWO_PHASE_CELLS_ACROSS_L0_QUICK
+                                            if quick else TWO_PHASE_CELLS_ACROSS_L0)
+            except ConfigError as exc:      # a scene the two-phase model cannot carry
+                cols, more = {"status_tp": f"refused: {exc}"}, []
+            old.update(cols)
+            curves[case.name] = [r for r in curves.get(case.name, []) if r[1] != "tp"] + more
+            save()
+            echo(f"  {old['status_tp']}" + (f", {cols['cpu_tp_s']:.0f} s CPU: runout "
+                                            f"{cols['runout_tp']:.4f} m (2D {old['runout_2d']:.4f}), "
+                                            f"H_f {cols['height_tp']:.4f} m" if "cpu_tp_s" in cols else ""))
+            continue
         if fresh and not redo and not isinstance(old.get("runout_diff_k"), float):
             echo(f"{case.name}: Savage–Hutter K runs only (2D from the CSV)")
             sh_end = old["t_end_2d"] if old["status_2d"] == "end_time" else SH_MAX_TIME
@@ -876,6 +1091,9 @@ def run(quick=False, out="runs/ladder", work="runs/ladder", only=None, redo=Fals
     plot(rows, read_series(out / "ladder_series.csv"), out / "ladder.png")
     echo(table(rows))
     echo(k_table(rows))
+    if any(isinstance(r.get("runout_tp"), float) for r in rows):
+        plot_two_phase(rows, read_series(out / "ladder_series.csv"), out / "ladder_two_phase.png")
+        echo(tp_table(rows))
     return 0
 
 
@@ -893,10 +1111,13 @@ def main(argv=None) -> int:
                         help="only the Savage–Hutter side of CASE at Δx = 4, 2, 1, 0.5 mm")
     parser.add_argument("--shallow", action="store_true",
                         help="the shallow limit: the ε family, ladder_shallow.csv/.png")
+    parser.add_argument("--two-phase", action="store_true",
+                        help="add the two-phase rung to the cases in the CSV")
     args = parser.parse_args(argv)
     try:
         return run(args.quick, args.out, args.work, args.only, args.redo, args.plot_only,
-                   args.sh_resolution, echo=lambda m: print(m, flush=True), shallow=args.shallow)
+                   args.sh_resolution, echo=lambda m: print(m, flush=True), shallow=args.shallow,
+                   two_phase=args.two_phase)
     except ConfigError as exc:
         print(f"ladder: error: {exc}", file=sys.stderr)
         return exc.exit_code

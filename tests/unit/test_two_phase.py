@@ -146,6 +146,9 @@ def test_bad_keys_are_one_line(override, key, capsys):
     assert key in capsys.readouterr().err
 
 
-def test_only_the_column_and_erodible_scenes():
-    with pytest.raises(ConfigError, match="geometry.shape"):
-        load_config(None, ["model.name=two_phase"])
+def test_only_scenes_with_a_vessel():
+    """The periodic layer has no vessel (``Scene.container``): refused with one line; the
+    trapezoid (the ladder's rigid-bed rows) has one."""
+    with pytest.raises(ConfigError, match="geometry.shape = 'layer'"):
+        load_config(None, ["model.name=two_phase", "geometry.shape=layer", "numerics.ale=false"])
+    assert load_config(None, ["model.name=two_phase", "model.box_height=0.3"]).geometry.shape == "trapezoid"
