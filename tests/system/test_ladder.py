@@ -6,6 +6,8 @@ ordering, and that a second call reuses the CSV."""
 import csv
 import math
 
+import numpy as np
+
 from dpcollapse.cli import main as cli_main
 from dpcollapse.studies import ladder
 
@@ -62,6 +64,34 @@ def test_ladder_quick(tmp_path):
     series = ladder.read_series(out / "ladder_series.csv")
     assert {("column_a2_quick", rung, kind) for rung in ("2d", "sh")
             for kind in ("front", "profile")} <= set(series)
+
+
+def test_ladder_two_phase_rung_quick(tmp_path):
+    """--two-phase adds the two-phase rung to a case of the CSV (the quick Coulomb column at
+    L0/4 = 1.75 cm cells, to the 2D rung's end time 0.1 s; measured 8 s CPU): the same time,
+    the column's area in its deposit profile, the front ahead of the wall, the table and the
+    chart; a second call finds it in the CSV."""
+    out, work = tmp_path / "out", tmp_path / "runs"
+    only = ["--only", "column_a2_quick", "--out", str(out), "--work", str(work)]
+    assert ladder.main(["--quick", *only]) == 0
+    assert ladder.main(["--quick", "--two-phase", *only]) == 0
+    r = ladder.read_rows(out / "ladder.csv")[0]
+    assert r["status_tp"] == "end_time" and math.isclose(r["t_end_tp"], 0.1)
+    assert math.isclose(r["cell_tp"], 0.07 / 4)
+    assert math.isclose(r["ritter_speed"], 2 * math.sqrt(9.81 * 0.14), rel_tol=1e-5)   # 6 digits
+    assert 0 < r["runout_tp"] and 0 < r["height_tp"] <= 0.14
+    assert math.isclose(r["runout_diff_tp"], (r["runout_tp"] - r["runout_2d"]) / r["runout_2d"],
+                        rel_tol=1e-5)
+    series = ladder.read_series(out / "ladder_series.csv")
+    x, h = series[("column_a2_quick", "tp", "profile")].T
+    area = float(np.sum(0.5 * (h[1:] + h[:-1]) * np.diff(x)))   # of the stored (thinned) profile
+    assert abs(area - 0.14 * 0.07) < 0.03 * 0.14 * 0.07          # measured 2.3 % short
+    assert ("column_a2_quick", "tp", "front") in series
+    assert "column_a2_quick" in ladder.tp_table([r])
+    assert (out / "ladder_two_phase.png").stat().st_size > 10_000
+    (work / "column_a2_quick_tp" / "run.json").unlink()
+    assert ladder.main(["--quick", "--two-phase", *only]) == 0
+    assert not (work / "column_a2_quick_tp" / "run.json").exists()
 
 
 def test_ladder_unknown_case_is_one_line(tmp_path, capsys):
