@@ -456,8 +456,10 @@ def stability(scene: str, quick: bool, config: Path | None, out: Path | None, me
               help="The shallow limit: the aspect-ratio family (ladder_shallow.csv/.png).")
 @click.option("--two-phase", "two_phase", is_flag=True,
               help="Add the two-phase rung to the cases already in the CSV (ladder_two_phase.png).")
+@click.option("--cells-across", "cells_across", type=click.IntRange(2, 256), default=None,
+              metavar="N", help="The two-phase rung's cells across L0 (default 16).")
 def ladder(quick: bool, out: Path, work: Path, only: tuple[str, ...], redo: bool, plot_only: bool,
-           sh_case: str | None, shallow: bool, two_phase: bool) -> int:
+           sh_case: str | None, shallow: bool, two_phase: bool, cells_across: int | None) -> int:
     """The model ladder: each scene with the 2D model and with Savage-Hutter (and with
     --two-phase the two-phase model), runout, deposit height and cost side by side
     (docs/ladder.md)."""
@@ -465,7 +467,7 @@ def ladder(quick: bool, out: Path, work: Path, only: tuple[str, ...], redo: bool
     echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
     return _lazy("dpcollapse.studies.ladder", "run")(
         quick, out, work, list(only) or None, redo, plot_only, sh_case, echo=echo, shallow=shallow,
-        two_phase=two_phase)
+        two_phase=two_phase, cells_across=cells_across)
 
 
 @cli.command()

@@ -1005,12 +1005,13 @@ def sh_resolution(case: Case, end_time: float | None = None) -> list[dict]:
 
 # ----------------------------------------------------------------------------- main
 def run(quick=False, out="runs/ladder", work="runs/ladder", only=None, redo=False, plot_only=False,
-        sh_case=None, echo=print, shallow=False, two_phase=False) -> int:
+        sh_case=None, echo=print, shallow=False, two_phase=False, cells_across=None) -> int:
     """Run the plan (skipping cases already in the CSV), write the CSVs, the chart, the table.
 
     ``two_phase``: add the two-phase rung (``two_phase_rung``) to every case of the plan
     whose 2D rung is in the CSV and that has none yet (``redo``: again), except the 2D
-    resolution variants; then ladder_two_phase.png and its table.
+    resolution variants; then ladder_two_phase.png and its table. ``cells_across``: its
+    cells across L0 (default TWO_PHASE_CELLS_ACROSS_L0; the resolution check).
 
     ``sh_case``: only the Savage–Hutter side of that case at Δx = 4, 2, 1, 0.5 mm.
     ``shallow``: the ε family (``shallow_plan``) into OUT/ladder_shallow.csv, …_series.csv and
@@ -1060,8 +1061,8 @@ def run(quick=False, out="runs/ladder", work="runs/ladder", only=None, redo=Fals
                 continue
             echo(f"{case.name}: two-phase rung ({case.config} {' '.join(case.overrides)})")
             try:
-                cols, more = two_phase_rung(case, old, work, dx, TWO_PHASE_CELLS_ACROSS_L0_QUICK
-                                            if quick else TWO_PHASE_CELLS_ACROSS_L0)
+                cols, more = two_phase_rung(case, old, work, dx, cells_across or (
+                    TWO_PHASE_CELLS_ACROSS_L0_QUICK if quick else TWO_PHASE_CELLS_ACROSS_L0))
             except ConfigError as exc:      # a scene the two-phase model cannot carry
                 cols, more = {"status_tp": f"refused: {exc}"}, []
             old.update(cols)
@@ -1121,11 +1122,17 @@ def main(argv=None) -> int:
                         help="the shallow limit: the ε family, ladder_shallow.csv/.png")
     parser.add_argument("--two-phase", action="store_true",
                         help="add the two-phase rung to the cases in the CSV")
+    parser.add_argument("--cells-across", type=int, default=None, metavar="N",
+                        help="the two-phase rung's cells across L0 (default 16)")
     args = parser.parse_args(argv)
+    if args.cells_across is not None and not (2 <= args.cells_across <= 256):
+        print(f"ladder: error: --cells-across = {args.cells_across}: must be in [2, 256]",
+              file=sys.stderr)
+        return 2
     try:
         return run(args.quick, args.out, args.work, args.only, args.redo, args.plot_only,
                    args.sh_resolution, echo=lambda m: print(m, flush=True), shallow=args.shallow,
-                   two_phase=args.two_phase)
+                   two_phase=args.two_phase, cells_across=args.cells_across)
     except ConfigError as exc:
         print(f"ladder: error: {exc}", file=sys.stderr)
         return exc.exit_code
