@@ -622,7 +622,7 @@ def _exit_without_finalizers(code: int) -> None:
     if MPI is not None and MPI.Is_initialized() and not MPI.Is_finalized() \
             and MPI.COMM_WORLD.size > 1:
         world = MPI.COMM_WORLD
-        parallel.all_arrive(world, parallel.grace_seconds())
+        parallel.all_arrive(parallel.meeting_comm(), parallel.grace_seconds())
         if world.rank != 0:
             time.sleep(parallel.grace_seconds())   # rank 0's abort ends this rank first
         world.Abort(code)

@@ -256,6 +256,13 @@ def _picklable(error: BaseException | None) -> BaseException | None:
 
 
 # ----------------------------------------------------------------------------- the end
+def meeting_comm():
+    """The communicator on which ending ranks meet: the control communicator (no collective
+    call left pending on COMM_WORLD by the error can mix with the meeting: a failed parallel
+    HDF5 write's did, MPI_ERR_TRUNCATE), else COMM_WORLD; None without MPI."""
+    return _control if _control is not None else _world()
+
+
 def all_arrive(comm, timeout: float) -> bool:
     """True when every rank of ``comm`` reaches this call within ``timeout`` seconds.
 
@@ -348,7 +355,7 @@ def end_together(exit_code: int, message: str, peer: bool = False) -> bool:
     _ignore_signals()    # a further SIGTERM (mpirun forwards it) must not break the ending
     if not peer:
         notify_failure(exit_code, message)
-    comm = _control if _control is not None else world
+    comm = meeting_comm()
     if all_arrive(comm, grace_seconds()):
         _drain()
         return True
