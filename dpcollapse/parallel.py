@@ -317,7 +317,10 @@ def fail_now(exit_code: int, message: str) -> None:
     in a C library that never returns (see :func:`time_limit`)."""
     world = _world()
     if world is not None and world.size > 1:
-        abort_job(world, exit_code, message)
+        try:
+            abort_job(world, exit_code, message)
+        finally:   # MPI_Abort does not return; should it (MPICH from a helper thread), the
+            os._exit(exit_code)   # line is already out: leave without a second one
     _run_abort_hooks(exit_code, message)
     sys.stderr.write(f"dpcollapse: error: {message}\n")
     sys.stderr.flush()
