@@ -633,8 +633,14 @@ def _leave_out_of_step(code: int) -> None:
     """After an error the ranks stopped at different calls (``parallel.out_of_step``):
     PETSc's terminator (a collective clean-up) would wait forever, so leave without it;
     MPI itself is finalized (the ranks have met in ``parallel.end_together``), so mpirun
-    passes the status on (rank 0 leaves after the others: ``parallel.finalize_and_exit``)."""
-    parallel.finalize_and_exit(code)
+    passes the status on. Every rank leaves with the same status at once (no rank waits
+    for another: a late signal could then reach the interpreter after MPI_Finalize)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    MPI = sys.modules.get("mpi4py.MPI")
+    if MPI is not None and MPI.Is_initialized() and not MPI.Is_finalized():
+        MPI.Finalize()
+    os._exit(code)
 
 
 __all__ = ["cli", "entry", "main", "summary"]

@@ -430,9 +430,11 @@ def finalize_and_exit(code: int) -> None:
     ``MPI_Finalize`` (which the ranks pass together) it waits until its sibling processes
     have exited (at most :data:`SIBLING_WAIT` s; a fixed 0.5 s where ``/proc`` is not
     readable). Ranks on other nodes are not seen; they are past ``MPI_Finalize`` too.
+    Used by the sweep's driver under ``mpi4py.futures`` (its workers exit 0).
     """
     sys.stdout.flush()
     sys.stderr.flush()
+    _ignore_signals()   # no KeyboardInterrupt once MPI is finalized: leave with ``code``
     MPI = sys.modules.get("mpi4py.MPI")
     rank = 0
     if MPI is not None and MPI.Is_initialized() and not MPI.Is_finalized():
