@@ -396,28 +396,34 @@ def install_excepthook() -> None:
 SIBLING_WAIT = 10.0
 
 
+def _stat(pid: int) -> list[bytes] | None:
+    """The fields of ``/proc/PID/stat`` after the command name (state, ppid, …); None for a
+    process that has exited."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            stat = f.read()
+    except OSError:
+        return None
+    return stat[stat.rfind(b")") + 2:].split()
+
+
+def _alive(pid: int) -> bool:
+    """Whether ``pid`` is still running (a zombie counts as exited)."""
+    fields = _stat(pid)
+    return bool(fields) and fields[0] != b"Z"
+
+
 def _sibling_pids() -> set[int] | None:
-    """The other processes with this process's parent (under mpirun, Hydra's proxy or
-    Open MPI's daemon: the other ranks on this node); ``None`` where ``/proc`` is not
+    """The other running processes with this process's parent (under mpirun, Hydra's proxy
+    or Open MPI's daemon: the other ranks on this node); ``None`` where ``/proc`` is not
     readable."""
     me, parent = os.getpid(), os.getppid()
     try:
-        entries = os.listdir("/proc")
+        pids = [int(e) for e in os.listdir("/proc") if e.isdigit() and int(e) != me]
     except OSError:
         return None
-    found = set()
-    for entry in entries:
-        if not entry.isdigit() or int(entry) == me:
-            continue
-        try:
-            with open(f"/proc/{entry}/stat", "rb") as f:
-                stat = f.read()
-        except OSError:
-            continue            # exited meanwhile
-        fields = stat[stat.rfind(b")") + 2:].split()
-        if len(fields) > 1 and int(fields[1]) == parent and fields[0] != b"Z":
-            found.add(int(entry))
-    return found
+    return {p for p in pids
+            if (f := _stat(p)) and len(f) > 1 and f[0] != b"Z" and int(f[1]) == parent}
 
 
 def finalize_and_exit(code: int) -> None:
@@ -450,13 +456,3 @@ def finalize_and_exit(code: int) -> None:
                 time.sleep(0.02)
                 pids = {p for p in pids if _alive(p)}
     os._exit(code)
-
-
-def _alive(pid: int) -> bool:
-    """Whether ``pid`` is still running (a zombie counts as exited)."""
-    try:
-        with open(f"/proc/{pid}/stat", "rb") as f:
-            stat = f.read()
-    except OSError:
-        return False
-    return stat[stat.rfind(b")") + 2:][:1] != b"Z"

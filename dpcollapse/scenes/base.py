@@ -32,6 +32,7 @@ import numpy as np
 from dpcollapse.geometry.layer import structured_rectangle
 from dpcollapse.geometry.mesher import (
     BED,
+    LEFT,
     RIGHT,
     SURFACE,
     WALL,
@@ -191,6 +192,14 @@ def bed_boundary(tag: int, condition: str, mu: float) -> Boundary:
         return Boundary(tag, "bed", BoundaryKind.NO_SLIP, (0.0, -1.0))
     kind = BoundaryKind.COULOMB if mu > 0 else BoundaryKind.SLIP
     return Boundary(tag, "bed", kind, (0.0, -1.0), friction=mu)
+
+
+def box_wall(mu_wall: float) -> Boundary:
+    """The side x = 0 of a vessel against which the mass stands: Coulomb friction μ_l on p,
+    as on the moving mesh, or a frictionless symmetry plane when μ_l = 0."""
+    if mu_wall > 0:
+        return Boundary(LEFT, "wall", BoundaryKind.COULOMB, (-1.0, 0.0), friction=mu_wall)
+    return Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0))
 
 
 def walled_boundaries(bed_condition: str, mu_bed: float, mu_wall: float) -> tuple[Boundary, ...]:

@@ -27,13 +27,13 @@ from dpcollapse.geometry.mesher import (
     read_msh,
     write_regions_msh,
 )
-from dpcollapse.geometry.mesher import BED, LEFT
+from dpcollapse.geometry.mesher import BED
 from dpcollapse.scenes.base import (
     Boundary,
-    BoundaryKind,
     Container,
     bed_boundary,
     box_container,
+    box_wall,
     initial_velocity,
     open_box_boundaries,
     walled_boundaries,
@@ -89,15 +89,10 @@ class ErodibleScene:
         return walled_boundaries(self.bed_condition, self.mu_bed, self.mu_wall)
 
     def container(self, box) -> Container:
-        """The layer and the mass on it in the box; the wall x = 0 Coulomb μ_l on p, as on
-        the moving mesh (frictionless symmetry when μ_l = 0)."""
-        if self.mu_wall > 0:
-            left = Boundary(LEFT, "wall", BoundaryKind.COULOMB, (-1.0, 0.0), friction=self.mu_wall)
-        else:
-            left = Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0))
+        """The layer and the mass on it in the box; the wall x = 0 (``box_wall``)."""
         (layer, _, _), (mass, _, _) = self.regions()
         return box_container(*box, open_box_boundaries(
-            bed_boundary(BED, self.bed_condition, self.mu_bed), left), (layer, mass),
+            bed_boundary(BED, self.bed_condition, self.mu_bed), box_wall(self.mu_wall)), (layer, mass),
             bed_layer=layer, front_floor=FRONT_FLOOR * self.layer_thickness)
 
     def initial_velocity(self):

@@ -13,16 +13,16 @@ from pathlib import Path
 
 import numpy as np
 
-from dpcollapse.geometry.mesher import BED, LEFT
+from dpcollapse.geometry.mesher import BED
 from dpcollapse.geometry.trapezoid import trapezoid_polygon
 from dpcollapse.scenes.base import (
     walled_boundaries,
     Boundary,
-    BoundaryKind,
     Container,
     PolygonScene,
     bed_boundary,
     box_container,
+    box_wall,
     initial_velocity,
     open_box_boundaries,
     top_extent,
@@ -59,15 +59,11 @@ class TrapezoidScene(PolygonScene):
         return walled_boundaries(self.bed_condition, self.mu_bed, self.mu_wall)
 
     def container(self, box) -> Container:
-        """The trapezoid in the box (two-phase model): the bed y = 0, the wall x = 0 with
-        Coulomb friction μ_l on p as on the moving mesh (frictionless slip when μ_l = 0)."""
-        if self.mu_wall > 0:
-            left = Boundary(LEFT, "wall", BoundaryKind.COULOMB, (-1.0, 0.0), friction=self.mu_wall)
-        else:
-            left = Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0))
+        """The trapezoid in the box (two-phase model): the bed y = 0, the wall x = 0
+        (``box_wall``)."""
         region = np.asarray(self.polygon()[0], dtype=float)   # convex, counter-clockwise
         return box_container(*box, open_box_boundaries(
-            bed_boundary(BED, self.bed_condition, self.mu_bed), left), (region,))
+            bed_boundary(BED, self.bed_condition, self.mu_bed), box_wall(self.mu_wall)), (region,))
 
     def initial_velocity(self):
         return initial_velocity(self.velocity, self.height, self.surface_speed)

@@ -659,6 +659,17 @@ def tp_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _save(fig, axes, path: Path) -> None:
+    """Grid every panel, write the figure to ``path`` and close it."""
+    import matplotlib.pyplot as plt
+
+    for ax in axes.flat:
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def plot_two_phase(rows: list[dict], series: dict, path: Path) -> None:
     """ladder_two_phase.png: runout and deposit height of the two-phase rung against the 2D
     one (columns: against a), fronts against time, and the deposits of three columns."""
@@ -713,11 +724,7 @@ def plot_two_phase(rows: list[dict], series: dict, path: Path) -> None:
     ax.set_xlim(left=0)
     ax.set_title("deposits", fontsize=9)
     ax.legend(fontsize=6)
-    for ax in axes.flat:
-        ax.grid(True, alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, axes, path)
 
 
 # ----------------------------------------------------------------------------- shallow limit
@@ -850,11 +857,7 @@ def plot_shallow(rows: list[dict], series: dict, path: Path) -> None:
     ax.set_xlim(-0.3, None)
     ax.set_title("deposits of the thinnest masses near the front", fontsize=9)
     ax.legend(fontsize=6)
-    for ax in axes.flat:
-        ax.grid(True, alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, axes, path)
 
 
 # ----------------------------------------------------------------------------- chart
@@ -972,11 +975,7 @@ def plot(rows: list[dict], series: dict, path: Path) -> None:
     ax.set_xticklabels(names, rotation=60, ha="right", fontsize=7)
     ax.set_ylabel("time 2D / time SH")
     ax.set_title("cost ratio (same process, one run at a time)", fontsize=9)
-    for ax in axes.flat:
-        ax.grid(True, alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _save(fig, axes, path)
 
 
 def _l0(row: dict) -> float:
