@@ -552,11 +552,23 @@ def main(argv: list[str] | None = None) -> int:
 _signalled = False
 
 
+#: Python packages whose code C/C++ calls back into (DOLFINx's wrappers around nanobind
+#: calls that take Python callables, its JIT through FFCx and cffi, PETSc, gmsh): an
+#: exception raised there unwinds through C++ frames (seen on the pip path's DOLFINx 0.11:
+#: "double free or corruption", SIGSEGV, with SIGTERM 1 s into the set-up).
+_CALLBACK_PACKAGES = ("dolfinx", "basix", "ffcx", "ufl", "cffi", "petsc4py", "gmsh",
+                      "setuptools", "distutils")
+
+
 def _importing(frame) -> bool:
     """Whether ``frame`` runs inside an import (any frame of its chain is the import
-    machinery's): also the Python code that a C extension's initialization calls."""
+    machinery's: also the Python code that a C extension's initialization calls) or inside
+    a library's Python code that C/C++ may have called (``_CALLBACK_PACKAGES``)."""
     while frame is not None:
-        if frame.f_code.co_filename.startswith("<frozen importlib"):
+        name = frame.f_code.co_filename
+        if name.startswith("<frozen importlib"):
+            return True
+        if str(frame.f_globals.get("__name__", "")).partition(".")[0] in _CALLBACK_PACKAGES:
             return True
         frame = frame.f_back
     return False
@@ -569,8 +581,9 @@ def _interrupt(signum, frame):
         # Not during an import: inside the import machinery's module locks an exception is
         # printed as a traceback, and inside a nanobind module's initialization (DOLFINx
         # >= 0.9 builds its enums by calling Python's enum module) it becomes a C++
-        # nanobind::python_error that ends in std::terminate (SIGABRT). Deliver the signal
-        # again a moment later, until it arrives outside any import.
+        # nanobind::python_error that ends in std::terminate (SIGABRT); nor inside the
+        # libraries' code (``_CALLBACK_PACKAGES``). Deliver the signal again a moment
+        # later, until it arrives in our own code.
         import signal
         import threading
 

@@ -321,3 +321,21 @@ def test_an_interrupt_checkpoints_the_last_accepted_step(tmp_path):
     assert state["step"] == d["step"][-1] >= 5
     assert json.loads((out / "run.json").read_text())["status"] == "interrupted"
     assert_whole(out)
+
+
+def test_a_signal_in_a_library_callback_is_delivered_in_our_code():
+    """The interrupt is deferred while a frame of the chain is a library's that C/C++ may
+    have called (dolfinx, ffcx, cffi, …), not in our own code; judged by module name, so a
+    checkout under a folder named like a library still gets its interrupts."""
+    import sys
+
+    from dpcollapse import cli
+
+    here = sys._getframe()
+    assert not cli._importing(here)
+    scope = {"__name__": "dolfinx.fem.function", "sys": sys}
+    exec("frame = sys._getframe()", scope)
+    assert cli._importing(scope["frame"])
+    scope = {"__name__": "dpcollapse.scenes.base", "sys": sys, "__file__": "/home/u/dolfinx/x.py"}
+    exec("frame = sys._getframe()", scope)
+    assert not cli._importing(scope["frame"])
