@@ -47,12 +47,19 @@ FAILURE_TAG = 4077
 #: Busy polls of a request before the wait sleeps between polls (keeps fast calls fast).
 _SPINS = 200
 _SLEEP = 0.0005
+#: Pause between a rank's last line and its MPI_Abort: MPICH's Hydra may end the job before
+#: it has forwarded the line (CI, pip path: 1 run in 14 under load came out without it).
+_LINE_PAUSE = 0.5
 
 _control = None                 # the control communicator (start())
 _failure: tuple | None = None   # (rank, exit status, message) once this rank knows of a failure
 _sent: list = []                # pending notices (kept alive until the end)
 _abandoned = False              # a failure-aware wait was left by an exception
 _abort_hooks: list[Callable[[], None]] = []
+
+
+class NotArrived(Exception):
+    """The other ranks did not reach a failure-aware call within its time bound."""
 
 
 class PeerFailed(DpcollapseError):
@@ -143,17 +150,22 @@ def _drain() -> None:
         _control.recv(source=MPI.ANY_SOURCE, tag=FAILURE_TAG)
 
 
-def wait(request) -> None:
+def wait(request, timeout: float | None = None) -> None:
     """Complete a non-blocking MPI request, watching for other ranks' failures (raises
-    :class:`PeerFailed`) and letting signal handlers run (an interrupt while waiting)."""
+    :class:`PeerFailed`) and letting signal handlers run (an interrupt while waiting).
+    With ``timeout`` (seconds), raise :class:`NotArrived` when the request has not
+    completed by then (the request is left pending)."""
     global _abandoned
     spins = 0
+    deadline = None if timeout is None else time.monotonic() + timeout
     try:
         while not request.Test():
             check_peers()
             spins += 1
             if spins > _SPINS:
                 time.sleep(_SLEEP)
+                if deadline is not None and time.monotonic() >= deadline:
+                    raise NotArrived(f"the other ranks did not arrive within {timeout:g} s")
     except BaseException:
         _abandoned = True     # a collective call left pending: the ranks are out of step
         raise
@@ -173,9 +185,9 @@ def barrier(comm) -> None:
         wait(comm.Ibarrier())
 
 
-def allreduce(comm, value, op=None):
+def allreduce(comm, value, op=None, timeout: float | None = None):
     """A failure-aware allreduce of one number or bool (``op``: MPI.SUM by default, MAX,
-    MIN, LOR, LAND); returns the same type."""
+    MIN, LOR, LAND); returns the same type. ``timeout``: see :func:`wait`."""
     import numpy as np
 
     MPI = _mpi()
@@ -190,7 +202,7 @@ def allreduce(comm, value, op=None):
     else:
         send = np.array([value], dtype=np.float64)
     recv = np.empty_like(send)
-    wait(comm.Iallreduce(send, recv, op=op))
+    wait(comm.Iallreduce(send, recv, op=op), timeout)
     return kind(recv[0]) if kind in (bool, int, float) else recv[0]
 
 
@@ -228,7 +240,13 @@ def on_root(comm, fn: Callable[[], Any]) -> Any:
 
 def agree(comm, fn: Callable[[], Any]) -> Any:
     """Run ``fn`` on every rank; if it raises on any, every rank raises the exception of
-    the lowest failing rank (a failure-aware point of agreement)."""
+    the lowest failing rank (a failure-aware point of agreement).
+
+    A rank whose ``fn`` failed waits for the others at most the grace time and then
+    raises its own exception (the caller ends the job, :func:`end_together`): a C
+    library's collective call may have failed on this rank alone and left the others
+    inside it (a parallel HDF5 write on a full disk under MPICH: one rank's write fails,
+    the other waits in HDF5's MPI-IO for it, never reaching this point)."""
     error = None
     try:
         result = fn()
@@ -238,7 +256,11 @@ def agree(comm, fn: Callable[[], Any]) -> Any:
         if error is not None:
             raise error
         return result
-    first = allreduce(comm, comm.rank if error is not None else comm.size, op=_mpi().MIN)
+    try:
+        first = allreduce(comm, comm.rank if error is not None else comm.size, op=_mpi().MIN,
+                          timeout=grace_seconds() if error is not None else None)
+    except NotArrived:
+        raise error from None
     if first == comm.size:
         return result
     shared = bcast(comm, _picklable(error) if comm.rank == first else None, root=first)
@@ -308,7 +330,14 @@ def abort_job(comm, exit_code: int, message: str) -> None:
     _run_abort_hooks(exit_code, message)
     sys.stderr.write(f"dpcollapse: error: [rank {comm.rank}] {message}\n")
     sys.stderr.flush()
-    comm.Abort(exit_code if 0 < exit_code < 256 else 1)
+    time.sleep(_LINE_PAUSE)
+    # On COMM_WORLD whatever ``comm`` is: MPICH passes the status on only then (on the
+    # control communicator its mpiexec exited 1 instead of 5: 3 runs in 40)
+    world = _world()
+    try:
+        (world if world is not None else comm).Abort(exit_code if 0 < exit_code < 256 else 1)
+    finally:   # MPI_Abort does not return; should it (MPICH's did, then the caller printed
+        os._exit(exit_code)   # the error a second time), leave without a second line
 
 
 def fail_now(exit_code: int, message: str) -> None:
@@ -317,10 +346,7 @@ def fail_now(exit_code: int, message: str) -> None:
     in a C library that never returns (see :func:`time_limit`)."""
     world = _world()
     if world is not None and world.size > 1:
-        try:
-            abort_job(world, exit_code, message)
-        finally:   # MPI_Abort does not return; should it (MPICH from a helper thread), the
-            os._exit(exit_code)   # line is already out: leave without a second one
+        abort_job(world, exit_code, message)   # does not return
     _run_abort_hooks(exit_code, message)
     sys.stderr.write(f"dpcollapse: error: {message}\n")
     sys.stderr.flush()

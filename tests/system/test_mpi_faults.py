@@ -52,6 +52,17 @@ _LAUNCHER = textwrap.dedent("""
                 time.sleep(3600)
             return original(*args, **kwargs)
         mesher.build_polygon_model = build
+    elif fault == "write_fails_on_one_rank":  # HDF5 on a full disk under MPICH: rank 1's
+        from dpcollapse import compat           # write fails, rank 0 waits inside HDF5's
+        original, calls = compat.write_xdmf_step, [0]   # own collective call for it
+        def write(comm, *args, **kwargs):
+            calls[0] += 1
+            if calls[0] == 2:
+                if rank == 1:
+                    raise RuntimeError("Failed to write HDF5 local dataset (injected)")
+                comm.Barrier()                  # never completes: rank 1 does not come
+            return original(comm, *args, **kwargs)
+        compat.write_xdmf_step = write
     from dpcollapse.cli import entry
     sys.argv = ["dpcollapse", *sys.argv[1:]]
     entry()
@@ -122,6 +133,24 @@ def test_a_full_disk_under_mpirun_is_an_io_failure(small_disk):  # noqa: F811
     assert proc.returncode == 5, proc.stderr[-3000:]
     lines = _our_lines(proc.stderr)
     assert len(lines) == 1 and "I/O failure" in lines[0], proc.stderr[-3000:]
+
+
+def test_a_write_that_fails_on_one_rank_inside_a_collective_call_ends_the_job(tmp_path):
+    """Seen in CI (pip path, MPICH, 4 runs in 32 under load): on a full disk one rank's
+    parallel HDF5 write failed while the other waited inside HDF5's own collective call for
+    it; the failing rank waited for it in turn, for ever. Now the failing rank waits the
+    grace time, then ends the job: exit 5 and one line, run.json failed."""
+    out = tmp_path / "run"
+    t0 = time.monotonic()
+    proc = _mpirun(tmp_path, "run", RIGID, *TINY, "--set", "time.end_time=0.05", "--out", out,
+                   "--quiet", fault="write_fails_on_one_rank")
+    assert proc.returncode == 5, proc.stderr[-3000:]
+    assert time.monotonic() - t0 < 120
+    lines = _our_lines(proc.stderr)
+    assert len(lines) == 1 and "I/O failure" in lines[0] and "(injected)" in lines[0], \
+        proc.stderr[-3000:]
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "failed" and "injected" in info["summary"]["error"]
 
 
 @pytest.mark.parametrize("delay", [0.25, 1.0])
