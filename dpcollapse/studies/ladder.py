@@ -732,6 +732,14 @@ def plot_two_phase(rows: list[dict], series: dict, path: Path) -> None:
 VARIANTS = (("K = 1", "runout_diff", "height_diff"), ("SH K", "runout_diff_k", "height_diff_k"),
             ("K = K_Rankine", "runout_diff_ka", "height_diff_ka"))
 TOLERANCES = (0.05, 0.10)
+#: The two-phase rung of a row (``ladder --shallow --two-phase``), as a variant.
+TP_VARIANT = ("two-phase", "runout_diff_tp", "height_diff_tp")
+
+
+def _variants(rows: list[dict]) -> tuple:
+    """The depth-averaged variants, and the two-phase rung where any row has it."""
+    has_tp = any(isinstance(r.get("runout_diff_tp"), float) for r in rows)
+    return VARIANTS + ((TP_VARIANT,) if has_tp else ())
 
 
 def eps_threshold(rows: list[dict], column: str, tol: float) -> str:
@@ -759,14 +767,14 @@ def _groups(rows: list[dict]) -> dict:
 
 
 def threshold_table(rows: list[dict]) -> str:
-    """Markdown: per family (bed and law) and depth-averaged variant, the ε below which the
-    depth-averaged runout is within 5 % and 10 % of the 2D one."""
-    lines = ["| family | depth-averaged K | runout within 5 % for ε | within 10 % for ε | "
-             "Δ runout (ε: SH vs 2D) |",
+    """Markdown: per family (bed and law) and depth-averaged variant (and the two-phase rung
+    where it ran), the ε below which its runout is within 5 % and 10 % of the 2D one."""
+    lines = ["| family | depth-averaged K (or two-phase) | runout within 5 % for ε | "
+             "within 10 % for ε | Δ runout (ε: rung vs 2D) |",
              "| --- | --- | --- | --- | --- |"]
     for group, members in _groups(rows).items():
         members = sorted(members, key=lambda r: r["param"])
-        for label, col, _ in VARIANTS:
+        for label, col, _ in _variants(members):
             diffs = ", ".join(f"{r['param']:g}: {100 * r[col]:+.0f} %" if isinstance(r.get(col), float)
                               else f"{r['param']:g}: —" for r in members)
             lines.append(f"| {group} | {label} | {eps_threshold(members, col, 0.05)} | "
@@ -812,12 +820,12 @@ def plot_shallow(rows: list[dict], series: dict, path: Path) -> None:
     groups = _groups(rows)
     fig, axes = plt.subplots(2, 2, figsize=(13, 9))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    styles = {"K = 1": "o-", "SH K": "s--", "K = K_Rankine": "^:"}
-    for ax, which, title in ((axes[0, 0], 1, "runout: (SH − 2D)/2D"),
-                             (axes[0, 1], 2, "deposit height H_f: (SH − 2D)/2D")):
+    styles = {"K = 1": "o-", "SH K": "s--", "K = K_Rankine": "^:", "two-phase": "x-."}
+    for ax, which, title in ((axes[0, 0], 1, "runout: (rung − 2D)/2D, rung = SH or two-phase"),
+                             (axes[0, 1], 2, "deposit height H_f: (rung − 2D)/2D")):
         for i, (group, members) in enumerate(groups.items()):
             members = sorted(members, key=lambda r: r["param"])
-            for variant in VARIANTS:
+            for variant in _variants(members):
                 vals = [100 * r[variant[which]] if isinstance(r.get(variant[which]), float) else np.nan
                         for r in members]
                 ax.plot([r["param"] for r in members], vals, styles[variant[0]],
@@ -839,6 +847,10 @@ def plot_shallow(rows: list[dict], series: dict, path: Path) -> None:
                 label=f"{group} SH K=1")
         ax.plot(eps, [r["runout_sh_k"] / SHALLOW_H for r in members], "s:", color=colors[i % len(colors)],
                 label=f"{group} SH K")
+        if TP_VARIANT in _variants(members):
+            ax.plot(eps, [r["runout_tp"] / SHALLOW_H if isinstance(r.get("runout_tp"), float)
+                               else np.nan for r in members], "x-.",
+                    color=colors[i % len(colors)], label=f"{group} two-phase")
     ax.set_yscale("log")
     _eps_axis(ax)
     ax.set_ylabel("runout ΔL / H")
@@ -847,7 +859,8 @@ def plot_shallow(rows: list[dict], series: dict, path: Path) -> None:
     ax = axes[1, 1]
     thinnest = [min(m, key=lambda r: r["param"]) for m in groups.values()]
     for i, r in enumerate(thinnest):
-        for rung, style, label in (("2d", "-", "2D"), ("sh", "--", "SH K=1"), ("sh_k", ":", "SH K")):
+        for rung, style, label in (("2d", "-", "2D"), ("sh", "--", "SH K=1"), ("sh_k", ":", "SH K"),
+                                   ("tp", "-.", "two-phase")):
             s = series.get((r["case"], rung, "profile"))
             if s is not None:
                 ax.plot(s[:, 0] - _l0(r), s[:, 1], style, color=colors[i % len(colors)],
@@ -1095,6 +1108,8 @@ def run(quick=False, out="runs/ladder", work="runs/ladder", only=None, redo=Fals
         plot_shallow(rows, read_series(out / f"{stem}_series.csv"), out / f"{stem}.png")
         echo(threshold_table(rows))
         echo(shallow_table(rows))
+        if any(isinstance(r.get("runout_tp"), float) for r in rows):
+            echo(tp_table(rows))
         return 0
     plot(rows, read_series(out / "ladder_series.csv"), out / "ladder.png")
     echo(table(rows))

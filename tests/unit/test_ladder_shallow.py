@@ -43,3 +43,13 @@ def test_eps_threshold():
     rows = _rows([(0.1, 0.01), (0.05, 0.01)])
     rows[0]["status_2d"] = "failed: fold"
     assert ladder.eps_threshold(rows, "runout_diff", 0.05) == "≤ 0.05"
+
+
+def test_threshold_table_has_a_two_phase_row_only_where_the_rung_ran():
+    rows = _rows([(0.5, 0.30), (0.05, 0.20)])
+    for r in rows:
+        r.update(runout_diff_k=0.1, runout_diff_ka=0.1)
+    assert "| two-phase |" not in ladder.threshold_table(rows)
+    rows[0]["runout_diff_tp"], rows[1]["runout_diff_tp"] = 0.12, 0.04
+    line = next(ln for ln in ladder.threshold_table(rows).splitlines() if "| two-phase |" in ln)
+    assert "| ≤ 0.05 | ≤ 0.05 |" in line and "0.05: +4 %, 0.5: +12 %" in line

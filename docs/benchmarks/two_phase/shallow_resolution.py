@@ -1,0 +1,27 @@
+"""Resolution check of the ladder's shallow rows (docs/benchmarks/2026-12-04-ladder-shallow-two-phase.md):
+one case of ``ladder.shallow_plan()`` with ``geometry.mesh_size`` replaced by CELL, its
+two-phase rung (``tp``, against the 2D row of docs/figures/ladder_shallow.csv) or its 2D and
+depth-averaged rungs (``2d``); one JSON line of the results.
+
+    python docs/benchmarks/two_phase/shallow_resolution.py tp shallow_flat_eps0.1 0.003 WORK
+    python docs/benchmarks/two_phase/shallow_resolution.py 2d shallow_flat_eps0.1 0.003 WORK
+"""
+import dataclasses
+import json
+import sys
+from pathlib import Path
+
+from dpcollapse.studies import ladder as L
+
+rung, name, cell, work = sys.argv[1], sys.argv[2], float(sys.argv[3]), Path(sys.argv[4])
+case = next(c for c in L.shallow_plan() if c.name == name)
+case = dataclasses.replace(case, overrides=tuple(o for o in case.overrides
+                                                 if not o.startswith("geometry.mesh_size="))
+                           + (f"geometry.mesh_size={cell:g}",))
+if rung == "tp":
+    row = {r["case"]: r for r in L.read_rows(L.ROOT / "docs/figures/ladder_shallow.csv")}[name]
+    cols, _ = L.two_phase_rung(case, row, work, L.SH_DX, L.TWO_PHASE_CELLS_ACROSS_L0)
+else:
+    cols, _ = L.compare(case, work, L.SH_DX)
+print(json.dumps({"case": name, "cell": cell, **{k: v for k, v in cols.items()
+                                                  if isinstance(v, (int, float, str))}}))
