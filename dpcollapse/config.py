@@ -11,6 +11,7 @@ Public API: :func:`load_config`, :func:`validate_config`, :func:`with_overrides`
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 from difflib import get_close_matches
@@ -427,26 +428,52 @@ GEOMETRIES: dict[str, type[_Geometry]] = {"trapezoid": TrapezoidGeometry, "layer
                                           "silo": SiloGeometry}
 
 
-class MaterialConfig(_Section):
-    """Granular material: regularized Drucker–Prager with a Newtonian part."""
+class _Material(_Section):
+    """Granular material: what every law has. One class per law (``rheology``, the tag)."""
 
-    rheology: Literal["drucker_prager", "mu_i"] = _f(
-        "drucker_prager", "", "drucker_prager (constant viscosity) or mu_i (rate-dependent)")
+    rheology: str
     density: Number = _f(1550.0, "kg/m^3", "Bulk density rho", gt=0)
-    viscosity: Number = _f(1.0, "Pa s", "Newtonian viscosity eta (drucker_prager)", ge=0)
     friction_angle: Number = _f(
         25.5, "deg", "Internal friction angle; mu_s = tan (0: drucker_prager without cohesion is a "
         "Newtonian fluid of viscosity eta)", ge=0, lt=90)
     gravity: Number = _f(9.81, "m/s^2", "Magnitude g of gravity", gt=0, le=1000)
     cohesion: Number = _f(0.0, "Pa", "Cohesion kappa0: yield stress kappa0 + mu_s p in shear", ge=0)
+
+    @property
+    def mu_s(self) -> float:
+        """Internal friction coefficient tan(friction_angle) [-]."""
+        return math.tan(math.radians(self.friction_angle))
+
+
+class DruckerPragerMaterial(_Material):
+    """Drucker–Prager: the yield stress κ(p) = √2 (κ0 + μ_s [p]_+) and a Newtonian part η."""
+
+    rheology: Literal["drucker_prager"] = _f(
+        "drucker_prager", "", "drucker_prager (constant viscosity) or mu_i (rate-dependent)")
+    viscosity: Number = _f(1.0, "Pa s", "Newtonian viscosity eta", ge=0)
+
+    @model_validator(mode="after")
+    def _newtonian_limit(self) -> DruckerPragerMaterial:
+        """friction_angle = cohesion = 0 is a Newtonian fluid: some stress must remain."""
+        if self.friction_angle == 0 and self.cohesion == 0 and self.viscosity == 0:
+            raise ConfigError("material.viscosity = 0: must be > 0 when material.friction_angle "
+                              "and material.cohesion are 0 (a fluid without any stress)")
+        return self
+
+
+class MuIMaterial(_Material):
+    """μ(I): μ = μ_s + (μ_2 − μ_s)/(I0/I + 1), I = d γ̇ / √(p/ρ_s) (seed 004)."""
+
+    rheology: Literal["mu_i"] = _f(
+        "mu_i", "", "drucker_prager (constant viscosity) or mu_i (rate-dependent)")
     friction_angle_2: Number = _f(
-        31.0, "deg", "mu_i: friction angle at large I; mu_2 = tan (must exceed friction_angle)",
+        31.0, "deg", "Friction angle at large I; mu_2 = tan (must exceed friction_angle)",
         gt=0, lt=90)
-    inertial_number_I0: Number = _f(0.4, "", "mu_i: I0 of mu(I) = mu_s + (mu_2 - mu_s)/(I0/I + 1)", gt=0)
-    grain_diameter: Number = _f(7.0e-4, "m", "mu_i: grain diameter d", gt=0)
-    grain_density: Number = _f(2500.0, "kg/m^3", "mu_i: grain density rho_s in I = d gamma_dot/sqrt(p/rho_s)", gt=0)
+    inertial_number_I0: Number = _f(0.4, "", "I0 of mu(I) = mu_s + (mu_2 - mu_s)/(I0/I + 1)", gt=0)
+    grain_diameter: Number = _f(7.0e-4, "m", "Grain diameter d", gt=0)
+    grain_density: Number = _f(2500.0, "kg/m^3", "Grain density rho_s in I = d gamma_dot/sqrt(p/rho_s)", gt=0)
     viscosity_cap: Number | None = _f(
-        None, "Pa s", "mu_i: cap eta_max on the effective viscosity (null: none)", gt=0)
+        None, "Pa s", "Cap eta_max on the effective viscosity (null: none)", gt=0)
 
     @property
     def mu_2(self) -> float:
@@ -454,29 +481,31 @@ class MaterialConfig(_Section):
         return math.tan(math.radians(self.friction_angle_2))
 
     @model_validator(mode="after")
-    def _newtonian_limit(self) -> MaterialConfig:
-        """friction_angle = 0: drucker_prager only, and then some stress must remain."""
-        if self.friction_angle == 0 and self.rheology != "drucker_prager":
+    def _mu_order(self) -> MuIMaterial:
+        if self.friction_angle == 0:
             raise ConfigError(
-                f"material.friction_angle = 0: must be in (0, 90) degrees for {self.rheology} "
-                f"(0 only with drucker_prager: a Newtonian fluid)")
-        if self.friction_angle == 0 and self.cohesion == 0 and self.viscosity == 0:
-            raise ConfigError("material.viscosity = 0: must be > 0 when material.friction_angle "
-                              "and material.cohesion are 0 (a fluid without any stress)")
-        return self
-
-    @model_validator(mode="after")
-    def _mu_order(self) -> MaterialConfig:
-        if self.rheology == "mu_i" and self.friction_angle_2 <= self.friction_angle:
+                "material.friction_angle = 0: must be in (0, 90) degrees for mu_i "
+                "(0 only with drucker_prager: a Newtonian fluid)")
+        if self.friction_angle_2 <= self.friction_angle:
             raise ConfigError(
                 f"material.friction_angle_2 = {_fmt(self.friction_angle_2)}: must be > "
                 f"material.friction_angle = {_fmt(self.friction_angle)} degrees for mu_i")
         return self
 
-    @property
-    def mu_s(self) -> float:
-        """Internal friction coefficient tan(friction_angle) [-]."""
-        return math.tan(math.radians(self.friction_angle))
+
+def _rheology_of(value: Any) -> str:
+    """The material class of a mapping or model: its ``rheology``, drucker_prager when absent."""
+    if isinstance(value, dict):
+        return value.get("rheology", "drucker_prager")
+    return getattr(value, "rheology", "drucker_prager")
+
+
+MaterialConfig = Annotated[
+    Annotated[DruckerPragerMaterial, Tag("drucker_prager")] | Annotated[MuIMaterial, Tag("mu_i")],
+    Discriminator(_rheology_of),
+]
+#: material.rheology -> its config class (the law itself: dpcollapse.rheology.choice.LAWS)
+MATERIALS: dict[str, type[_Material]] = {"drucker_prager": DruckerPragerMaterial, "mu_i": MuIMaterial}
 
 
 class BoundaryConfig(_Section):
@@ -857,7 +886,7 @@ class Config(_Section):
     """The whole configuration; every section has defaults."""
 
     geometry: GeometryConfig = Field(default_factory=TrapezoidGeometry, description="Initial mass")
-    material: MaterialConfig = Field(default_factory=MaterialConfig, description="Material")
+    material: MaterialConfig = Field(default_factory=DruckerPragerMaterial, description="Material")
     boundary: BoundaryConfig = Field(default_factory=BoundaryConfig, description="Friction")
     model: ModelConfig = Field(default_factory=StokesModel, description="Model")
     numerics: NumericsConfig = Field(default_factory=NumericsConfig, description="Solvers")
@@ -1037,9 +1066,10 @@ RENAMED: dict[tuple[str, str], str] = {}
 
 #: Sections whose value is one of several classes told apart by a tag (the tag appears in
 #: pydantic's error locations after the section name).
-_UNIONS: dict[str, dict[str, type[BaseModel]]] = {"geometry": GEOMETRIES, "model": MODELS}
+_UNIONS: dict[str, dict[str, type[BaseModel]]] = {"geometry": GEOMETRIES, "material": MATERIALS,
+                                                  "model": MODELS}
 #: the tag key of each union section
-_UNION_TAGS = {"geometry": "shape", "model": "name"}
+_UNION_TAGS = {"geometry": "shape", "material": "rheology", "model": "name"}
 
 
 def _walk(loc: Sequence[str]) -> tuple[list[str], type[BaseModel] | None]:
@@ -1141,9 +1171,33 @@ def validate_config(data: Any, base_dir: str | Path | None = None) -> Config:
         raise _from_validation_error(exc) from None
 
 
+#: Union sections whose kind an override may switch (``--set material.rheology=mu_i`` on a
+#: Drucker–Prager file, a sweep over the law): -> the function that reads the current kind.
+_SWITCHABLE = {"material": _rheology_of}
+
+
+def _switch_kind(data: dict[str, Any], section: str, kind: Any, overridden: set) -> None:
+    """An override gives ``section`` another kind: keep the keys the new kind has, drop the
+    old kind's own (e.g. material.viscosity of drucker_prager for mu_i; logged, not silent).
+    A key set by an override is kept: the new kind then refuses it with one line."""
+    new = _UNIONS[section].get(kind) if isinstance(kind, str) else None
+    if new is None or kind == _SWITCHABLE[section](data[section]):
+        return
+    dropped = [k for k in data[section]
+               if k not in new.model_fields and (section, k) not in overridden]
+    for k in dropped:
+        del data[section][k]
+    if dropped:
+        logging.getLogger("dpcollapse").info(
+            "%s.%s = %s: %s not used by it, dropped", section, _UNION_TAGS[section], kind,
+            ", ".join(f"{section}.{k}" for k in dropped))
+
+
 def _apply_overrides(data: dict[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
-    """Set ``section.key=value`` items (value parsed as YAML) into a copy of ``data``."""
+    """Set ``section.key=value`` items (value parsed as YAML) into a copy of ``data``; an
+    item that switches a section's kind (``_SWITCHABLE``) drops the old kind's own keys."""
     data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in data.items()}
+    overridden: set[tuple[str, str]] = set()
     for item in overrides:
         path, sep, raw = item.partition("=")
         parts = path.strip().split(".")
@@ -1158,7 +1212,10 @@ def _apply_overrides(data: dict[str, Any], overrides: Sequence[str]) -> dict[str
             data[section] = {}
         if not isinstance(data[section], dict):
             raise ConfigError(f"{section} = {_fmt(data[section])}: must be a mapping of keys")
+        if section in _SWITCHABLE and key == _UNION_TAGS[section]:
+            _switch_kind(data, section, value, overridden)
         data[section][key] = value
+        overridden.add((section, key))
     return data
 
 
@@ -1258,6 +1315,17 @@ def load_config(path: str | Path | None, overrides: Sequence[str] = ()) -> Confi
 def with_overrides(cfg: Config, overrides: Sequence[str]) -> Config:
     """A new Config: ``cfg`` with ``section.key=value`` overrides applied and re-validated."""
     return validate_config(_apply_overrides(config_to_dict(cfg), overrides))
+
+
+def from_saved(data: Any) -> Any:
+    """A config this program wrote (config.yaml, run.json's "config"), perhaps by a version
+    of before 2026-12-04, whose single material class wrote every law's keys: those of
+    another law than its ``rheology`` are dropped (they had no effect). Other data as is."""
+    material = data.get("material") if isinstance(data, dict) else None
+    law = MATERIALS.get(_rheology_of(material)) if isinstance(material, dict) else None
+    if law is None:
+        return data
+    return {**data, "material": {k: v for k, v in material.items() if k in law.model_fields}}
 
 
 def config_to_dict(cfg: Config) -> dict[str, Any]:

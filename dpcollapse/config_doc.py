@@ -43,7 +43,8 @@ _HEADER = """\
 YAML, SI units, angles in degrees; every key is optional (the defaults below are defined
 once, in `dpcollapse/config.py`). Unknown keys, wrong types and out-of-range values are
 refused with one line naming the key, the value and what is allowed;
-`--set section.key=value` overrides any key and is validated the same way. The resolved
+`--set section.key=value` overrides any key and is validated the same way (one that switches
+`material.rheology` drops the keys only the other law has, and says so). The resolved
 configuration of a run is written to `config.yaml` in its run directory.
 """
 

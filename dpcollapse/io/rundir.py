@@ -33,7 +33,7 @@ from typing import Any
 
 import yaml
 
-from dpcollapse.config import config_to_dict, validate_config
+from dpcollapse.config import config_to_dict, from_saved, validate_config
 from dpcollapse.errors import ConfigError
 
 #: Files and folders a run writes (removed whole by --overwrite).
@@ -178,7 +178,7 @@ class RunDirectory:
         saved_path = self.path / "config.yaml"
         try:
             # through the schema, so that keys added since the run was made take their defaults
-            saved = config_to_dict(validate_config(yaml.safe_load(saved_path.read_text())))
+            saved = config_to_dict(validate_config(from_saved(yaml.safe_load(saved_path.read_text()))))
         except (OSError, yaml.YAMLError, ConfigError):
             raise ConfigError(f"--resume: {saved_path} is missing or unreadable; the run cannot "
                               "be checked against its config (start it again with --overwrite)"

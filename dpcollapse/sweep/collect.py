@@ -14,7 +14,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from dpcollapse.config import GEOMETRIES
+from dpcollapse.config import GEOMETRIES, from_saved
 from dpcollapse.sweep.naming import yaml_value
 from dpcollapse.sweep.spec import Case, Sweep
 
@@ -101,7 +101,7 @@ def case_state(out: Path, case: Case) -> CaseState:
         state = "failed" if code not in (None, 0, 130) else "pending"
         return CaseState(state, "", code, None, record, resumable)
     status = str(run.get("status", ""))
-    if run.get("config") != case.config:
+    if from_saved(run.get("config")) != case.config:
         return CaseState("stale", status, code, run, record, resumable,
                          resumable and status != "failed" and _extendable(run, case.config))
     if running:
@@ -120,7 +120,7 @@ def _extendable(run: dict, config: dict) -> bool:
     --resume`` accepts changed, and the run has not gone past the new end time."""
     from dpcollapse.io.rundir import RESUMABLE_KEYS, changed_keys
 
-    old = run.get("config")
+    old = from_saved(run.get("config"))
     if not isinstance(old, dict):
         return False
     t = (run.get("summary") or {}).get("t", 0.0)

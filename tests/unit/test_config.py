@@ -49,10 +49,12 @@ def test_defaults_load():
 
 
 def test_defaults_live_in_the_fields_with_units():
-    from dpcollapse.config import GEOMETRIES, MODELS
+    from dpcollapse.config import GEOMETRIES, MATERIALS, MODELS
 
-    sections = [f.annotation for k, f in Config.model_fields.items() if k not in ("geometry", "model")]
-    for section in sections + list(GEOMETRIES.values()) + list(MODELS.values()):
+    unions = ("geometry", "material", "model")
+    sections = [f.annotation for k, f in Config.model_fields.items() if k not in unions]
+    for section in (sections + list(GEOMETRIES.values()) + list(MATERIALS.values())
+                    + list(MODELS.values())):
         for name, field in section.model_fields.items():
             assert field.description, name
 
@@ -265,3 +267,41 @@ def test_time_scheme_and_tolerance(tmp_path):
     assert "time.scheme" in _error(tmp_path, overrides=["time.scheme=bdf3"])
     assert "numerics.extrapolate" in _error(tmp_path, overrides=[
         "time.scheme=bdf2", "time.tolerance=1e-4", "time.dt_max=0.02", "numerics.extrapolate=true"])
+
+
+def test_material_is_a_union_on_the_law(caplog):
+    """A key of the other law is refused, naming the law it belongs to (it used to be
+    accepted and ignored); switching the law by an override keeps the shared keys and drops
+    the old law's own (logged); a key set by an override is never dropped."""
+    from dpcollapse.config import DruckerPragerMaterial, MuIMaterial
+
+    with pytest.raises(ConfigError, match=r"^material.grain_diameter: unknown key; it belongs to "
+                                          r"material.rheology = mu_i$"):
+        load_config(RIGID, ["material.grain_diameter=1e-3"])
+    with pytest.raises(ConfigError, match=r"^material.viscosity: unknown key; it belongs to "
+                                          r"material.rheology = drucker_prager$"):
+        load_config(RIGID, ["material.viscosity=2", "material.rheology=mu_i",
+                            "material.friction_angle_2=40"])
+    with caplog.at_level("INFO", logger="dpcollapse"):
+        cfg = load_config(RIGID, ["material.friction_angle=20", "material.rheology=mu_i"])
+    assert isinstance(cfg.material, MuIMaterial) and cfg.material.friction_angle == 20
+    assert not hasattr(cfg.material, "viscosity")
+    assert "material.viscosity not used by it, dropped" in caplog.text
+    back = with_overrides(cfg, ["material.rheology=drucker_prager"])
+    assert isinstance(back, Config) and isinstance(back.material, DruckerPragerMaterial)
+    assert back.material.viscosity == 1.0 and back.material.density == cfg.material.density
+
+
+def test_a_config_written_before_the_material_union_still_reads():
+    """Run directories and sweeps of before 2026-12-04 wrote every law's keys: resume and
+    the sweep's staleness check read them through ``from_saved``."""
+    from dpcollapse.config import config_to_dict, from_saved, validate_config
+
+    cfg = load_config(RIGID)
+    old = config_to_dict(cfg)
+    old["material"].update(friction_angle_2=31.0, inertial_number_I0=0.4, grain_diameter=7e-4,
+                           grain_density=2500.0, viscosity_cap=None)
+    with pytest.raises(ConfigError):
+        validate_config(old)
+    assert from_saved(old) == config_to_dict(cfg)
+    assert from_saved(None) is None and from_saved({"time": {}}) == {"time": {}}
