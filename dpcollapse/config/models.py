@@ -1,0 +1,168 @@
+"""``model``: one section class per model (dpcollapse/models/), told apart by ``name``, and
+the size bounds of their meshes and grids."""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Any, Literal
+
+from pydantic import (
+    Discriminator,
+    Tag,
+    model_validator,
+)
+
+from dpcollapse.errors import ConfigError
+from dpcollapse.config.fields import Count, Number, _f, _fmt, _Section
+
+
+class StokesModel(_Section):
+    """The 2D model: incompressible flow of the material on the scene's mesh (its solver
+    settings are the ``numerics`` section)."""
+
+    name: Literal["stokes"] = _f(
+        "stokes", "", "Model: stokes (2D flow, numerics section), savage_hutter (1D "
+        "depth-averaged, this section; docs/savage_hutter.md) or two_phase (granular and light "
+        "fluid on a fixed box; docs/model.md)")
+
+
+#: Most cells of a grid or mesh (1D grid, two-phase box): about 1 GB of state at the
+#: two-phase model's cost per cell (MEMORY_PER_CELL); larger is refused before any array exists.
+MAX_GRID_CELLS = 1_000_000
+#: Bytes per cell of the two-phase box mesh (P2/P1 flow, DG0 fraction, LU fill-in), an
+#: estimate for the limit above and the number ``dpcollapse check`` prints.
+MEMORY_PER_CELL = 1000
+#: Largest coordinate of a domain end [m].
+MAX_EXTENT = 1.0e5
+
+
+class SavageHutterModel(_Section):
+    """The depth-averaged Savage–Hutter model on a 1D grid along the bed (x down the slope
+    geometry.bed_angle): the scene's polygon as initial thickness, the basal friction from
+    the bed condition or the rheology (models/savage_hutter/setup.py, docs/savage_hutter.md)."""
+
+    name: Literal["savage_hutter"] = _f("savage_hutter", "", "The depth-averaged model")
+    basal_friction: Literal["auto", "bed", "rheology"] = _f(
+        "auto", "", "Basal friction mu_b: bed = Coulomb tan(boundary.bed_friction_angle); rheology "
+        "= the material's (drucker_prager: Coulomb mu_s; mu_i: mu(I) with the depth-averaged I); "
+        "auto = bed if boundary.bed_condition = coulomb and the bed angle is below "
+        "material.friction_angle, else rheology")
+    earth_pressure: Literal["hydrostatic", "savage_hutter"] = _f(
+        "hydrostatic", "", "Longitudinal stress K g cos(theta) h^2/2: hydrostatic (K = 1) or "
+        "savage_hutter (K_act/pass = 2 sec^2(phi) (1 -/+ sqrt(1 - cos^2(phi) sec^2(delta))) - 1, "
+        "phi = material.friction_angle, delta the basal friction angle; active where du/dx >= 0; "
+        "docs/savage_hutter.md)")
+    shape_factor: Number = _f(
+        1.0, "", "Shape factor alpha of the momentum flux alpha h u^2: 1 (plug profile) or 1.25 "
+        "(Bagnold profile)", ge=1, le=1.5)
+    alpha_depth: Number = _f(
+        1.0e-3, "m", "Below this thickness alpha tapers linearly to 1 (bounds the alpha > 1 front)",
+        gt=0)
+    order: Literal[1, 2] = _f(
+        1, "", "1: first-order HLL, forward Euler; 2: MUSCL (MC limiter) and Heun")
+    cfl: Number = _f(0.9, "", "CFL number: dt <= cfl dx/max|wave speed|", gt=0, le=1)
+    h_dry: Number = _f(1.0e-10, "m", "Thinner cells carry no momentum (dry)", ge=0)
+    front_threshold: Number = _f(
+        1.0e-3, "m", "Thickness that defines the front (furthest x where h crosses it)", gt=0)
+    n_cells: Count = _f(800, "", "Number of finite-volume cells on [x_min, x_max]", ge=2,
+                        le=MAX_GRID_CELLS)
+    x_min: Number = _f(0.0, "m", "Upslope end of the 1D domain (the wall of the scene is at x = 0)",
+                       ge=-MAX_EXTENT, le=MAX_EXTENT)
+    x_max: Number | None = _f(
+        None, "m", "Downslope end of the 1D domain; null: base_length + 20 height",
+        ge=-MAX_EXTENT, le=MAX_EXTENT)
+    left: Literal["wall", "open"] = _f(
+        "wall", "", "Upslope end: wall (reflective wall or symmetry plane) or open (outflow)")
+    right: Literal["wall", "open"] = _f("open", "", "Downslope end: wall or open")
+
+    @model_validator(mode="after")
+    def _interval(self) -> SavageHutterModel:
+        if self.x_max is not None and self.x_max <= self.x_min:
+            raise ConfigError(f"model.x_max = {_fmt(self.x_max)}: must be > model.x_min = "
+                              f"{_fmt(self.x_min)} (m)")
+        return self
+
+
+def box_cells(length: float, height: float, mesh_size: float) -> float:
+    """Estimated triangles of a box meshed at ``mesh_size`` (two per square of side h)."""
+    return 2.0 * length * height / mesh_size ** 2
+
+
+def mesh_cells(area: float, mesh_size: float) -> float:
+    """Estimated triangles of a region of ``area`` meshed by gmsh at ``mesh_size``: equilateral
+    triangles of side h, area sqrt(3)/4 h^2 each."""
+    return area / (math.sqrt(3.0) / 4.0 * mesh_size ** 2)
+
+
+class TwoPhaseModel(_Section):
+    """The granular phase and a passive light fluid on a fixed box mesh (seed 003's Gerris and
+    Basilisk method): a volume fraction c advected by the flow, mixture density and viscosity,
+    p = 0 at the surface without tracking it (models/two_phase/, docs/model.md)."""
+
+    name: Literal["two_phase"] = _f("two_phase", "", "The Eulerian two-phase model")
+    box_length: Number = _f(1.0, "m", "Length of the fixed box [0, box_length] (must contain the mass)",
+                            gt=0)
+    box_height: Number = _f(1.0, "m", "Height of the fixed box [0, box_height] (must contain the mass)",
+                            gt=0)
+    air_density: Number = _f(
+        1.55, "kg/m^3", "Density of the light fluid (default 1e-3 of 1550 kg/m^3: Basilisk's RHOF)",
+        gt=0)
+    air_viscosity: Number = _f(
+        0.1, "Pa s", "Viscosity of the light fluid (Basilisk's mug = 1e-4 in rho sqrt(g) L^1.5, "
+        "5e-3 Pa s at L = 0.05 m, diverged in the light fluid: docs/benchmarks/"
+        "2026-12-02-column-eulerian.md)", gt=0)
+    courant: Number = _f(
+        0.4, "", "Courant number of the sub-cycled explicit advection of c (outflow of a cell per "
+        "sub-step over its content)", gt=0, le=0.5)
+    compression: Number = _f(
+        1.0, "", "Interface compression: flux C |u.n| c_donor (1 - c_receiver) towards the fuller "
+        "cell (0: plain upwind)", ge=0, le=2)
+    fraction_threshold: Number = _f(
+        0.5, "", "A cell with c above this counts as granular (mass front, max speed)", gt=0, lt=1)
+    grad_div: Number = _f(
+        10.0, "", "gamma of the grad-div term gamma S (div u)(div v) with S the local secant "
+        "viscosity of the mixture (0: off; docs/benchmarks/2026-12-02-two-phase-rest.md)", ge=0, le=100)
+    min_cell: Number | None = _f(
+        None, "m", "Adaptive mesh: cell size in the granular phase and its band (null: the uniform "
+        "structured box of geometry.mesh_size; equal to max_cell: the uniform box of this size)",
+        gt=0)
+    max_cell: Number | None = _f(
+        None, "m", "Adaptive mesh: cell size in the light fluid far from the granular phase "
+        "(null: geometry.mesh_size)", gt=0)
+    refine_fraction: Number = _f(
+        0.01, "", "Adaptive mesh: cells with c above this are refined (with their band)", gt=0, lt=1)
+    refine_band: Number = _f(
+        4.0, "", "Adaptive mesh: width of the fine band around the granular cells, in min_cell",
+        ge=1, le=50)
+    refine_grading: Number = _f(
+        0.3, "", "Adaptive mesh: growth of the cell size per unit distance beyond the band",
+        gt=0, le=2)
+    remesh_every: Count = _f(
+        0, "", "Adaptive mesh: rebuild every this many steps as well (0: only when a granular "
+        "cell is coarser than 1.5 min_cell)", ge=0)
+    adaptive_dt: bool = _f(
+        False, "", "Limit the step by the flow's Courant number: dt <= step_courant h_K/|u_K| "
+        "over the cells with c > step_fraction (with time.dt as the largest step)")
+    step_courant: Number = _f(
+        0.5, "", "Courant number of adaptive_dt (cells crossed per step)", gt=0, le=2)
+    step_fraction: Number = _f(
+        0.01, "", "adaptive_dt: only the cells with c above this limit the step (0.5: the "
+        "granular cells, not the light fluid's jets; the advection of c sub-cycles anyway)",
+        gt=0, lt=1)
+
+
+def _name_of(value: Any) -> str:
+    """The model class of a mapping or model: its ``name``, stokes when absent."""
+    if isinstance(value, dict):
+        return value.get("name", "stokes")
+    return getattr(value, "name", "stokes")
+
+
+ModelConfig = Annotated[
+    Annotated[StokesModel, Tag("stokes")] | Annotated[SavageHutterModel, Tag("savage_hutter")]
+    | Annotated[TwoPhaseModel, Tag("two_phase")],
+    Discriminator(_name_of),
+]
+#: model.name -> its config class
+MODELS: dict[str, type[_Section]] = {"stokes": StokesModel, "savage_hutter": SavageHutterModel,
+                                     "two_phase": TwoPhaseModel}

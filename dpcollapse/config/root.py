@@ -1,0 +1,166 @@
+"""The whole configuration (:class:`Config`) and its checks across sections."""
+
+from __future__ import annotations
+
+import math
+
+from pydantic import (
+    Field,
+    model_validator,
+)
+
+from dpcollapse.errors import ConfigError
+from dpcollapse.config.fields import _fmt, _Section
+from dpcollapse.config.geometry import GEOMETRIES, GeometryConfig, TrapezoidGeometry
+from dpcollapse.config.material import DruckerPragerMaterial, MaterialConfig
+from dpcollapse.config.models import (MAX_GRID_CELLS, MEMORY_PER_CELL, ModelConfig, StokesModel,
+                                      box_cells, mesh_cells)
+from dpcollapse.config.numerics import BoundaryConfig, NumericsConfig
+from dpcollapse.config.run import InitialConfig, OutputConfig, TimeConfig
+
+
+class Config(_Section):
+    """The whole configuration; every section has defaults."""
+
+    geometry: GeometryConfig = Field(default_factory=TrapezoidGeometry, description="Initial mass")
+    material: MaterialConfig = Field(default_factory=DruckerPragerMaterial, description="Material")
+    boundary: BoundaryConfig = Field(default_factory=BoundaryConfig, description="Friction")
+    model: ModelConfig = Field(default_factory=StokesModel, description="Model")
+    numerics: NumericsConfig = Field(default_factory=NumericsConfig, description="Solvers")
+    initial: InitialConfig = Field(default_factory=InitialConfig, description="Initial state")
+    time: TimeConfig = Field(default_factory=TimeConfig, description="Time stepping")
+    output: OutputConfig = Field(default_factory=OutputConfig, description="Output")
+
+    @model_validator(mode="after")
+    def _scene(self) -> Config:
+        g = self.geometry
+        if self.model.name not in g.models:
+            shapes = [name for name, cls in GEOMETRIES.items() if self.model.name in cls.models]
+            raise ConfigError(f"geometry.shape = {g.shape!r}: not available with model.name = "
+                              f"{self.model.name}; must be one of "
+                              + ", ".join(repr(x) for x in shapes))
+        if self.model.name == "savage_hutter":
+            self._depth_averaged()
+        if self.model.name == "two_phase":
+            self._two_phase()
+        if self.model.name == "stokes":
+            self._moving_mesh()
+        if g.periodic and self.numerics.ale:
+            raise ConfigError(f"numerics.ale = true: a periodic domain is fixed; must be false "
+                              f"with geometry.shape = {g.shape}")
+        if self.numerics.extrapolate and self.time.adaptive:
+            # measured (1 cm rigid case, dt_max 1.5 ms): a 1–1.5 mm/s creep accepted at one
+            # iteration per step went on from t = 0.9 s to the 1.8 s cap instead of stopping
+            raise ConfigError("numerics.extrapolate = true with time.adaptive = true: measured "
+                              "to creep instead of coming to rest; must be false with time.adaptive = true")
+        if self.numerics.extrapolate and self.time.tolerance is not None:
+            # measured (1 cm rigid case, tol 1e-4): accepted at one iterate from the
+            # extrapolated start, the fixed point's error (≈ rtol‖u‖, not O(Δt³)) entered the
+            # local error estimate and the step fell to 7e-6 s by t = 0.23 s
+            raise ConfigError("numerics.extrapolate = true with time.tolerance set: measured to "
+                              "drive the step to ~1e-5 s (the fixed point's error enters the "
+                              "error estimate); must be false with time.tolerance")
+        if self.time.scheme == "bdf2" and (self.model.name != "stokes"
+                                           or self.numerics.method != "regularized"):
+            raise ConfigError(f"time.scheme = 'bdf2': only with model.name = stokes and "
+                              f"numerics.method = regularized (got {self.model.name}, "
+                              f"{self.numerics.method}); use bdf1")
+        if g.periodic and self.numerics.linear_solver == "iterative":
+            raise ConfigError(f"numerics.linear_solver = 'iterative': not available on a periodic "
+                              f"domain (geometry.shape = {g.shape}); use mumps or superlu_dist")
+        return self
+
+    def _moving_mesh(self) -> None:
+        """The mass's mesh must fit the cell limit (``geometry.mesh_size`` = 1e-5 m asked gmsh
+        for about 7e8 triangles)."""
+        g = self.geometry
+        cells = mesh_cells(g.area, g.mesh_size)
+        if cells > MAX_GRID_CELLS:
+            smallest = math.sqrt(g.area / (math.sqrt(3.0) / 4.0 * MAX_GRID_CELLS))
+            raise ConfigError(
+                f"geometry.mesh_size = {_fmt(g.mesh_size)}: about {cells:.3g} cells for the "
+                f"{g.area:.4g} m^2 of the mass (about {cells * MEMORY_PER_CELL / 1e9:.3g} GB), more "
+                f"than {MAX_GRID_CELLS}; must be >= {smallest:.3g} m")
+
+    def _two_phase(self) -> None:
+        """The fixed box must contain the column; the rest is refused (one line each)."""
+        g, m = self.geometry, self.model
+        if self.output.format != "xdmf":
+            raise ConfigError(f"output.format = {self.output.format!r}: must be 'xdmf' with "
+                              "model.name = two_phase")
+        if getattr(g, "own_vessel", False):
+            if m.min_cell is not None or m.max_cell is not None:
+                key = "min_cell" if m.min_cell is not None else "max_cell"
+                raise ConfigError(f"model.{key} = {_fmt(getattr(m, key))}: the adaptive box is for "
+                                  f"the box scenes; must be null with geometry.shape = {g.shape}")
+            self._unused_numerics("two_phase", allowed=("regularized", "picard"))
+            return
+        (length, height), what = g.footprint, "initial material"
+        if m.box_length < length:
+            raise ConfigError(f"model.box_length = {_fmt(m.box_length)}: must be >= {length:g} m "
+                              f"(the box must contain the {what})")
+        if m.box_height < height:
+            raise ConfigError(f"model.box_height = {_fmt(m.box_height)}: must be >= {height:g} m "
+                              f"(the box must contain the {what})")
+        if m.min_cell is not None and m.min_cell > (m.max_cell or g.mesh_size):
+            raise ConfigError(f"model.min_cell = {_fmt(m.min_cell)}: must be <= model.max_cell "
+                              f"= {(m.max_cell or g.mesh_size):g} m (null: geometry.mesh_size)")
+        if m.box_length < 2 * g.mesh_size or m.box_height < 2 * g.mesh_size:
+            raise ConfigError(f"geometry.mesh_size = {_fmt(g.mesh_size)}: must be at most half "
+                              "of model.box_length and model.box_height with model.name = two_phase")
+        cells = box_cells(m.box_length, m.box_height, g.mesh_size)
+        if cells > MAX_GRID_CELLS:
+            raise ConfigError(
+                f"model.box_length = {_fmt(m.box_length)}, model.box_height = {_fmt(m.box_height)}: "
+                f"about {cells:.3g} cells at geometry.mesh_size = {_fmt(g.mesh_size)} m (about "
+                f"{cells * MEMORY_PER_CELL / 1e9:.3g} GB), more than {MAX_GRID_CELLS}; a smaller "
+                "box or a larger mesh size")
+        self._unused_numerics("two_phase", allowed=("regularized", "picard"))
+
+    def _unused_numerics(self, model: str, allowed: tuple[str, ...] = ()) -> None:
+        """Refuse numerics keys set to a non-default value that ``model`` does not read
+        (``allowed``: the method and nonlinear solver values it does run)."""
+        n, default = self.numerics, NumericsConfig()
+        if model == "two_phase":
+            for key in ("method", "nonlinear_solver"):
+                if getattr(n, key) not in allowed:
+                    raise ConfigError(f"numerics.{key} = {getattr(n, key)!r}: model.name = "
+                                      f"two_phase runs the regularized Picard iteration only; "
+                                      f"must be {getattr(default, key)!r}")
+            return
+        changed = sorted(k for k in n.model_fields_set if getattr(n, k) != getattr(default, k))
+        if changed:
+            raise ConfigError(f"numerics.{changed[0]} = {_fmt(getattr(n, changed[0]))}: not used by "
+                              f"model.name = {model} (its keys are under model.*); remove "
+                              + ("it" if len(changed) == 1 else
+                                 f"it and numerics.{', numerics.'.join(changed[1:])}"))
+
+    def _depth_averaged(self) -> None:
+        """What the 1D model cannot represent is refused (one line each)."""
+        if self.initial.velocity != "rest":
+            raise ConfigError(f"initial.velocity = {self.initial.velocity!r}: must be 'rest' "
+                              "with model.name = savage_hutter")
+        if self.output.format != "xdmf":
+            raise ConfigError(f"output.format = {self.output.format!r}: must be 'xdmf' with "
+                              "model.name = savage_hutter")
+        m = self.model
+        x_max = m.x_max if m.x_max is not None else self.geometry.base_length + 20 * self.geometry.height
+        b, phi = self.boundary, self.material.friction_angle
+        if (m.earth_pressure == "savage_hutter" and m.basal_friction == "bed"
+                and b.bed_friction_angle > phi):
+            # auto and rheology give delta <= phi (auto takes the bed only below phi)
+            raise ConfigError(f"boundary.bed_friction_angle = {_fmt(b.bed_friction_angle)}: must be "
+                              f"<= material.friction_angle = {_fmt(phi)} (deg) with "
+                              "model.earth_pressure = savage_hutter (K_act/pass is imaginary for "
+                              "delta > phi)")
+        self._unused_numerics("savage_hutter")
+        if m.x_min > 0 or x_max < self.geometry.base_length:
+            raise ConfigError(f"model.x_min = {_fmt(m.x_min)}, model.x_max = {_fmt(m.x_max)}: "
+                              f"the 1D domain must contain the mass [0, {self.geometry.base_length:g}] m")
+
+    @property
+    def gravity_vector(self) -> tuple[float, float]:
+        """Gravity in slope coordinates, g (sin θ, -cos θ) [m/s^2]."""
+        theta = math.radians(self.geometry.bed_angle)
+        g = self.material.gravity
+        return (g * math.sin(theta), -g * math.cos(theta))
