@@ -96,6 +96,13 @@ def _our_lines(err: str) -> list[str]:
     return [ln[ln.index(marker):] for ln in err.splitlines() if marker in ln]
 
 
+def _ended_with(proc, code: int, *phrases: str) -> None:
+    """The job exited ``code`` with exactly one of our lines, holding every phrase."""
+    assert proc.returncode == code, proc.stderr[-3000:]
+    lines = _our_lines(proc.stderr)
+    assert len(lines) == 1 and all(p in lines[0] for p in phrases), proc.stderr[-3000:]
+
+
 def test_a_failure_on_one_rank_ends_the_job_with_its_status(tmp_path):
     """Rank 1 fails alone while rank 0 goes on into the next step's solves: rank 1 tells
     rank 0, waits the grace time, writes run.json and aborts the job with exit 4."""
@@ -103,10 +110,8 @@ def test_a_failure_on_one_rank_ends_the_job_with_its_status(tmp_path):
     t0 = time.monotonic()
     proc = _mpirun(tmp_path, "run", RIGID, *TINY, "--set", "time.end_time=0.05", "--out", out,
                    "--quiet", fault="lone_mesh_error")
-    assert proc.returncode == 4, proc.stderr[-3000:]
     assert time.monotonic() - t0 < 120
-    lines = _our_lines(proc.stderr)
-    assert len(lines) == 1 and "injected breakdown on rank 1" in lines[0], proc.stderr[-3000:]
+    _ended_with(proc, 4, "injected breakdown on rank 1")
     info = json.loads((out / "run.json").read_text())
     assert info["status"] == "failed" and "injected breakdown" in info["summary"]["error"]
 
@@ -119,10 +124,8 @@ def test_a_mesher_that_never_returns_is_a_mesh_failure(tmp_path):
     proc = _mpirun(tmp_path, "run", RIGID, *TINY, "--set", "time.end_time=0.05", "--set",
                    "numerics.remesh_min_angle=59", "--out", out, "--quiet",
                    fault="stuck_mesher", DPCOLLAPSE_MESH_TIME_LIMIT="3")
-    assert proc.returncode == 4, proc.stderr[-3000:]
     assert time.monotonic() - t0 < 120
-    lines = _our_lines(proc.stderr)
-    assert len(lines) == 1 and "meshing did not finish within 3 s" in lines[0], proc.stderr[-3000:]
+    _ended_with(proc, 4, "meshing did not finish within 3 s")
     assert json.loads((out / "run.json").read_text())["status"] == "failed"
 
 
@@ -130,9 +133,7 @@ def test_a_full_disk_under_mpirun_is_an_io_failure(small_disk):  # noqa: F811
     out = small_disk / "run"
     proc = _mpirun(small_disk.parent, "run", RIGID, *TINY, "--set", "time.end_time=0.05",
                    "--out", out, "--quiet")
-    assert proc.returncode == 5, proc.stderr[-3000:]
-    lines = _our_lines(proc.stderr)
-    assert len(lines) == 1 and "I/O failure" in lines[0], proc.stderr[-3000:]
+    _ended_with(proc, 5, "I/O failure")
 
 
 def test_a_write_that_fails_on_one_rank_inside_a_collective_call_ends_the_job(tmp_path):
@@ -144,11 +145,8 @@ def test_a_write_that_fails_on_one_rank_inside_a_collective_call_ends_the_job(tm
     t0 = time.monotonic()
     proc = _mpirun(tmp_path, "run", RIGID, *TINY, "--set", "time.end_time=0.05", "--out", out,
                    "--quiet", fault="write_fails_on_one_rank")
-    assert proc.returncode == 5, proc.stderr[-3000:]
     assert time.monotonic() - t0 < 120
-    lines = _our_lines(proc.stderr)
-    assert len(lines) == 1 and "I/O failure" in lines[0] and "(injected)" in lines[0], \
-        proc.stderr[-3000:]
+    _ended_with(proc, 5, "I/O failure", "(injected)")
     info = json.loads((out / "run.json").read_text())
     assert info["status"] == "failed" and "injected" in info["summary"]["error"]
 
