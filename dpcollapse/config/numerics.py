@@ -71,7 +71,9 @@ class NumericsConfig(_Section):
     nonlinear_rtol: Number = _f(
         1.0e-3, "", "Fixed-point stop: ||du|| <= rtol*||u|| + atol (relative part)", gt=0, lt=1
     )
-    nonlinear_atol: Number = _f(1.0e-7, "m/s", "Fixed-point stop, absolute part", ge=0)
+    nonlinear_atol: Number | None = _f(
+        None, "m/s", "Fixed-point stop, absolute part (null: 0.3*time.tolerance with the "
+        "error-controlled step, 1e-7 with a fixed step)", ge=0)
     max_iterations: Count = _f(100, "", "Most fixed-point iterations per time step", ge=1)
     nonlinear_solver: Literal["picard", "newton"] = _f(
         "picard", "", "Regularized method: Picard fixed point (secant viscosity, Anderson) or "

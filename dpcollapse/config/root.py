@@ -19,6 +19,14 @@ from dpcollapse.config.numerics import BoundaryConfig, NumericsConfig
 from dpcollapse.config.run import InitialConfig, OutputConfig, TimeConfig
 
 
+#: numerics.nonlinear_atol = null: the fixed point's absolute stop as a fraction of the
+#: error-controlled step's time.tolerance (measured on configs/rigid.yaml, 0.1 … 1 all meet
+#: its accuracy rule, 0.3 is the fastest: docs/benchmarks/2026-12-04-nonlinear-atol.md) …
+ATOL_FRACTION = 0.3
+#: … and with a fixed step, 1e-7 m/s.
+FIXED_STEP_ATOL = 1.0e-7
+
+
 class Config(_Section):
     """The whole configuration; every section has defaults."""
 
@@ -30,6 +38,19 @@ class Config(_Section):
     initial: InitialConfig = Field(default_factory=InitialConfig, description="Initial state")
     time: TimeConfig = Field(default_factory=TimeConfig, description="Time stepping")
     output: OutputConfig = Field(default_factory=OutputConfig, description="Output")
+
+    @property
+    def fixed_point_atol(self) -> float:
+        """The absolute part of the fixed point's stop ‖δu‖ ≤ rtol ‖u‖ + atol [m/s]:
+        ``numerics.nonlinear_atol``, or, when it is null, ATOL_FRACTION × ``time.tolerance``
+        with the error-controlled step (the nonlinear solve is asked for a fraction of the
+        error the step itself may make, as implicit integrators with error control do —
+        SUNDIALS/CVODE: 0.1) and FIXED_STEP_ATOL with a fixed step."""
+        if self.numerics.nonlinear_atol is not None:
+            return self.numerics.nonlinear_atol
+        if self.time.tolerance is not None:
+            return ATOL_FRACTION * self.time.tolerance
+        return FIXED_STEP_ATOL
 
     @model_validator(mode="after")
     def _scene(self) -> Config:

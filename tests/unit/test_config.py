@@ -92,6 +92,25 @@ def test_quadrature_degree_key():
     assert load_config(None, ["numerics.quadrature_degree=6"]).numerics.quadrature_degree == 6
 
 
+def test_the_fixed_point_stop_follows_the_step_error_tolerance():
+    """numerics.nonlinear_atol null: 0.3 × time.tolerance with the error-controlled step,
+    1e-7 m/s with a fixed step; a value given is kept; and it reaches the fixed point."""
+    from dpcollapse.models.stokes.augmented import augmented_settings
+    from dpcollapse.models.stokes.regularized import picard_settings
+
+    rigid = load_config(RIGID)
+    assert rigid.numerics.nonlinear_atol is None and rigid.time.tolerance == 1e-4
+    assert math.isclose(rigid.fixed_point_atol, 3e-5, rel_tol=1e-12)
+    assert math.isclose(picard_settings(rigid).atol, 3e-5, rel_tol=1e-12)
+    fixed = load_config(RIGID, RIGID_BDF1)
+    assert fixed.fixed_point_atol == 1e-7
+    al = load_config(RIGID, RIGID_BDF1 + ["numerics.method=augmented_lagrangian"])
+    assert augmented_settings(al).atol == 1e-7
+    assert load_config(RIGID, ["numerics.nonlinear_atol=2e-6"]).fixed_point_atol == 2e-6
+    assert load_config(RIGID, ["numerics.nonlinear_atol=0"]).fixed_point_atol == 0.0
+    assert load_config(None).fixed_point_atol == 1e-7
+
+
 def test_time_step_keys():
     """dt_max < dt only matters when adaptive."""
     cfg = load_config(None, ["time.dt=1e-2", "time.dt_max=5e-3", "time.adaptive=false"])

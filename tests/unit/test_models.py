@@ -59,3 +59,18 @@ def test_snapshot_transfer_round_trip_on_the_same_mesh(method):
     assert list(a.exported_cell_fields) == (["rigid"] if method == "augmented_lagrangian" else [])
     a.destroy()
     b.destroy()
+
+
+def test_the_absolute_floor_waits_for_a_measured_contraction():
+    """numerics.nonlinear_atol counts only from the second iterate (the contraction ρ of the
+    error estimate measured): a first iterate whose increment is below atol but not below
+    rtol ‖u‖ is not accepted (near arrest that let a mass creep on, one iterate per step);
+    numerics.fixed_iterations still ends the step where it says."""
+    base = ["geometry.mesh_size=0.05", "numerics.epsilon=1e-2", "numerics.epsilon_friction=1e-3"]
+    for extra, expected in ((["numerics.nonlinear_atol=10"], 2),
+                            (["numerics.nonlinear_atol=10", "numerics.fixed_iterations=1"], 1)):
+        cfg = load_config(ROOT / "configs/rigid.yaml", base + extra)
+        flow = make_flow(build_mesh(cfg, MPI.COMM_SELF), cfg)
+        report = flow.solve_step(1e-3)
+        assert report.converged and report.iterations == expected, (extra, report)
+        flow.destroy()

@@ -94,7 +94,7 @@ def augmented_settings(cfg) -> AugmentedSettings:
         r_f = 10.0 * n.augmentation / h
     if n.augmentation_friction is not None:
         r_f = n.augmentation_friction
-    return AugmentedSettings(r, r_f, r_w, n.nonlinear_rtol, n.nonlinear_atol, n.augmented_max_iterations,
+    return AugmentedSettings(r, r_f, r_w, n.nonlinear_rtol, cfg.fixed_point_atol, n.augmented_max_iterations,
                              n.epsilon, n.epsilon_friction, n.linear_solver, n.anderson_depth)
 
 
