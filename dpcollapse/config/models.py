@@ -108,9 +108,14 @@ class TwoPhaseModel(_Section):
         1.55, "kg/m^3", "Density of the light fluid (default 1e-3 of 1550 kg/m^3: Basilisk's RHOF)",
         gt=0)
     air_viscosity: Number = _f(
-        0.1, "Pa s", "Viscosity of the light fluid (Basilisk's mug = 1e-4 in rho sqrt(g) L^1.5, "
-        "5e-3 Pa s at L = 0.05 m, diverged in the light fluid: docs/benchmarks/"
-        "2026-12-02-column-eulerian.md)", gt=0)
+        0.1, "Pa s", "Viscosity of the light fluid (Basilisk's mug = 1e-4 in rho sqrt(g) L^1.5 is "
+        "5e-3 Pa s at L = 0.05 m: it diverged before the skew-symmetric convection and converges "
+        "since, docs/benchmarks/2026-12-04-light-fluid.md)", gt=0)
+    viscosity_average: Literal["arithmetic", "harmonic"] = _f(
+        "arithmetic", "", "Mixture viscosity S of the granular S_g and the light 2 air_viscosity "
+        "in a cell of fraction c: arithmetic S = c S_g + (1 - c) 2 eta_a (Basilisk) or harmonic "
+        "1/S = c/S_g + (1 - c)/(2 eta_a) (Gerris; measured to stall the fixed point on the column: "
+        "docs/benchmarks/2026-12-04-light-fluid.md)")
     courant: Number = _f(
         0.4, "", "Courant number of the sub-cycled explicit advection of c (outflow of a cell per "
         "sub-step over its content)", gt=0, le=0.5)

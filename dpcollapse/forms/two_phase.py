@@ -4,7 +4,8 @@ light fluid, so that p = 0 at the surface comes for free).
 With c ∈ [0, 1] the granular volume fraction (DG0)::
 
     ρ(c) = c ρ_g + (1 − c) ρ_a                                        "mixture_density"
-    σ'   = [c S_g(u, p) + (1 − c) 2η_a] D(u)                          ``MixtureRheology``
+    σ'   = S D(u),  S = c S_g(u, p) + (1 − c) 2η_a  (arithmetic)      ``MixtureRheology``
+                  or 1/S = c/S_g(u, p) + (1 − c)/(2η_a)  (harmonic, ``model.viscosity_average``)
     ∂c/∂t + ∇·(c u) = 0                                                "fraction_flux"
 
 The flow terms are those of ``forms.picard`` with ρ(c) and the mixture law. The volume
@@ -27,32 +28,70 @@ def mixture(c, granular, light):
     return c * granular + (1.0 - c) * light
 
 
+#: the averages of the granular and the light viscosity across the interface
+#: (``model.viscosity_average``)
+VISCOSITY_AVERAGES = ("arithmetic", "harmonic")
+
+#: the harmonic mean's floor on the granular viscosity, relative to the light one: S_g = 0
+#: where [p]_+ = 0 without cohesion, and 1/S = c/S_g + … is then S = 0 for c > 0 (the limit)
+#: but 0/0 at c = 0, where the floor gives the light fluid's own 2η_a
+HARMONIC_FLOOR = 1.0e-12
+
+
+def harmonic_mixture(c, granular, light):
+    """1/(c/a_g + (1 − c)/a_a), written a_a / ((1 − c) + c a_a/max(a_g, f a_a)) with
+    f = ``HARMONIC_FLOOR`` (finite where a_g = 0): the harmonic mean of two viscosities,
+    the mixture's stresses in series (Gerris' average; Basilisk's is the arithmetic one)."""
+    floor = ufl.max_value(granular, HARMONIC_FLOOR * light)
+    return light / ((1.0 - c) + c * light / floor)
+
+
+def viscosity_mixture(c, granular, light, average: str = "arithmetic"):
+    """The mixture of a granular and a light viscosity by ``average`` (``VISCOSITY_AVERAGES``):
+    arithmetic c a_g + (1 − c) a_a, harmonic 1/(c/a_g + (1 − c)/a_a)."""
+    if average == "arithmetic":
+        return mixture(c, granular, light)
+    if average == "harmonic":
+        return harmonic_mixture(c, granular, light)
+    raise ValueError(f"viscosity average {average!r}: one of {', '.join(VISCOSITY_AVERAGES)}")
+
+
 class MixtureRheology:
-    """The granular law in the granular phase, a Newtonian fluid η_a in the light phase:
-    S = c S_g(u, p) + (1 − c) 2η_a (the secant viscosity of ``rheology.base``), σ' = S D(u).
-    It offers the ``Rheology`` protocol to ``forms.picard`` (the law is any Rheology)."""
+    """The granular law in the granular phase, a Newtonian fluid η_a in the light phase,
+    σ' = S D(u) with S (the secant viscosity of ``rheology.base``) averaged by ``average``::
+
+        arithmetic   S = c S_g(u, p) + (1 − c) 2η_a
+        harmonic     1/S = c/S_g(u, p) + (1 − c)/(2η_a)
+
+    (the rate viscosities likewise with η_a; the yield stress is c κ(p) either way). It offers
+    the ``Rheology`` protocol to ``forms.picard`` (the law is any Rheology)."""
 
     rate_dependent = True
 
-    def __init__(self, law, fraction, light_viscosity):
-        self.law, self.c, self.eta_a = law, fraction, light_viscosity
+    def __init__(self, law, fraction, light_viscosity, average: str = "arithmetic"):
+        if average not in VISCOSITY_AVERAGES:
+            raise ValueError(f"viscosity average {average!r}: one of {', '.join(VISCOSITY_AVERAGES)}")
+        self.law, self.c, self.eta_a, self.average = law, fraction, light_viscosity, average
         self.cohesion = law.cohesion
         self.viscosity_cap = law.viscosity_cap
+
+    def _mix(self, granular, light):
+        return viscosity_mixture(self.c, granular, light, self.average)
 
     def yield_stress(self, p):
         """c κ(p) [Pa]."""
         return self.c * self.law.yield_stress(p)
 
     def rate_viscosity(self, u, p, epsilon):
-        """c η_g + (1 − c) η_a [Pa s]."""
-        return mixture(self.c, self.law.rate_viscosity(u, p, epsilon), self.eta_a)
+        """η_g and η_a averaged (arithmetic: c η_g + (1 − c) η_a) [Pa s]."""
+        return self._mix(self.law.rate_viscosity(u, p, epsilon), self.eta_a)
 
     def capped_rate_viscosity(self, u, p, epsilon):
-        return mixture(self.c, self.law.capped_rate_viscosity(u, p, epsilon), self.eta_a)
+        return self._mix(self.law.capped_rate_viscosity(u, p, epsilon), self.eta_a)
 
     def secant_viscosity(self, u, p, epsilon):
-        """S = c S_g(u, p) + (1 − c) 2η_a [Pa s]."""
-        return mixture(self.c, self.law.secant_viscosity(u, p, epsilon), 2.0 * self.eta_a)
+        """S of S_g and 2η_a averaged (arithmetic: c S_g(u, p) + (1 − c) 2η_a) [Pa s]."""
+        return self._mix(self.law.secant_viscosity(u, p, epsilon), 2.0 * self.eta_a)
 
     def deviatoric_stress(self, u, p, epsilon):
         return self.secant_viscosity(u, p, epsilon) * strain_rate(u)
