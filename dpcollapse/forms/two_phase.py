@@ -46,14 +46,19 @@ def harmonic_mixture(c, granular, light):
     return light / ((1.0 - c) + c * light / floor)
 
 
+def _known_average(average: str) -> str:
+    """``average`` if it is one of ``VISCOSITY_AVERAGES``, else ValueError naming them."""
+    if average not in VISCOSITY_AVERAGES:
+        raise ValueError(f"viscosity average {average!r}: one of {', '.join(VISCOSITY_AVERAGES)}")
+    return average
+
+
 def viscosity_mixture(c, granular, light, average: str = "arithmetic"):
     """The mixture of a granular and a light viscosity by ``average`` (``VISCOSITY_AVERAGES``):
     arithmetic c a_g + (1 − c) a_a, harmonic 1/(c/a_g + (1 − c)/a_a)."""
-    if average == "arithmetic":
-        return mixture(c, granular, light)
-    if average == "harmonic":
+    if _known_average(average) == "harmonic":
         return harmonic_mixture(c, granular, light)
-    raise ValueError(f"viscosity average {average!r}: one of {', '.join(VISCOSITY_AVERAGES)}")
+    return mixture(c, granular, light)
 
 
 class MixtureRheology:
@@ -69,9 +74,8 @@ class MixtureRheology:
     rate_dependent = True
 
     def __init__(self, law, fraction, light_viscosity, average: str = "arithmetic"):
-        if average not in VISCOSITY_AVERAGES:
-            raise ValueError(f"viscosity average {average!r}: one of {', '.join(VISCOSITY_AVERAGES)}")
-        self.law, self.c, self.eta_a, self.average = law, fraction, light_viscosity, average
+        self.law, self.c, self.eta_a = law, fraction, light_viscosity
+        self.average = _known_average(average)
         self.cohesion = law.cohesion
         self.viscosity_cap = law.viscosity_cap
 
