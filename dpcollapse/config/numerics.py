@@ -108,6 +108,10 @@ class NumericsConfig(_Section):
         "even when nonlinear_rtol is not met (earlier when it is); 1: the linearly implicit "
         "step, viscosity and convection at the step's start (as Basilisk's granular.h); null: iterate "
         "to nonlinear_rtol", ge=1)
+    convection: Literal["implicit", "lagged"] = _f(
+        "implicit", "", "Regularized Picard: the convection in the matrix, linearized at the "
+        "iterate (implicit), or wholly at the iterate on the right-hand side (lagged: the same "
+        "fixed point, a symmetric matrix that MUMPS factorizes as LDL^T at half the cost of LU)")
     anderson_depth: Count = _f(
         5, "", "Anderson acceleration of the fixed point: history length m (0 = plain Picard)",
         ge=0, le=50)
@@ -151,6 +155,11 @@ class NumericsConfig(_Section):
                                                   or self.nonlinear_solver != "picard"):
             raise ConfigError(f"numerics.fixed_iterations = {self.fixed_iterations}: only with "
                               f"numerics.method = regularized and nonlinear_solver = picard")
+        if self.convection == "lagged" and (self.method != "regularized"
+                                            or self.nonlinear_solver != "picard"):
+            raise ConfigError(f"numerics.convection = 'lagged': only with numerics.method = "
+                              f"regularized and nonlinear_solver = picard (got {self.method}, "
+                              f"{self.nonlinear_solver}); use implicit")
         if self.linear_solver == "iterative" and self.reuse_factorization:
             raise ConfigError("numerics.reuse_factorization = true: needs a direct "
                               "numerics.linear_solver (mumps or superlu_dist), not iterative")

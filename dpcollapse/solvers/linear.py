@@ -1,7 +1,11 @@
-"""Direct sparse solve with PETSc (MUMPS or SuperLU_dist LU).
+"""Direct sparse solve with PETSc (MUMPS or SuperLU_dist LU; MUMPS LDLᵀ for symmetric matrices).
 
 The KSP is kept across solves: when the matrix keeps its nonzero pattern PETSc redoes
-only the numeric factorization, and the symbolic analysis is reused.
+only the numeric factorization, and the symbolic analysis is reused. A symmetric matrix
+(``symmetric=True``: the caller guarantees it, e.g. the Picard system with the convection
+lagged, or the mesh velocity's) is factorized by MUMPS as LDLᵀ (PETSc's Cholesky PC; MUMPS
+SYM = 2, symmetric indefinite, which the saddle point needs): half the flops and storage of
+LU (measured on the rigid collapse's 9428-dof Taylor–Hood system: 11.0 against 20.0 ms).
 """
 
 from __future__ import annotations
@@ -12,7 +16,8 @@ from petsc4py import PETSc
 
 
 class DirectSolver:
-    """LU factorization of a PETSc matrix, reused across solves.
+    """LU (or, for a symmetric matrix with MUMPS, LDLᵀ) factorization of a PETSc matrix,
+    reused across solves.
 
     With ``krylov=True`` the KSP is GMRES preconditioned by the LU factors, so that
     ``set_operator(A, refactor=False)`` keeps the old (stale) factorization as the
@@ -24,7 +29,7 @@ class DirectSolver:
     """
 
     def __init__(self, comm, package: str = "mumps", prefix: str = "dpc_", krylov: bool = False,
-                 rtol: float = 1e-10):
+                 rtol: float = 1e-10, symmetric: bool = False):
         self.ksp = PETSc.KSP().create(comm)
         self.ksp.setOptionsPrefix(prefix)
         self.krylov = krylov
@@ -35,7 +40,9 @@ class DirectSolver:
         else:
             self.ksp.setType("preonly")
         pc = self.ksp.getPC()
-        pc.setType("lu")
+        # LDLᵀ only with MUMPS (SuperLU_dist has no symmetric factorization)
+        self.symmetric = symmetric and package == "mumps"
+        pc.setType("cholesky" if self.symmetric else "lu")
         pc.setFactorSolverType(package)
         if package == "mumps":
             opts = PETSc.Options()
@@ -55,6 +62,8 @@ class DirectSolver:
         is False (Krylov mode only: the old factors precondition the new matrix)."""
         reuse = self.krylov and not refactor
         self.ksp.getPC().setReusePreconditioner(reuse)
+        if self.symmetric:   # MUMPS takes one triangle; the flag says the caller means it
+            A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
         self.ksp.setOperators(A)
         if not reuse:
             self.factorizations += 1

@@ -54,6 +54,7 @@ class PicardSettings:
     krylov_max_iterations: int = 500
     time_scheme: str = "bdf1"  # time.scheme: bdf1 or bdf2 (solvers.bdf)
     fixed_iterations: int | None = None  # accept the step after this many iterates (None: converge)
+    convection: str = "implicit"  # implicit (lhs) or lagged (rhs at the iterate: symmetric lhs, LDLᵀ)
 
 
 def picard_settings(cfg) -> PicardSettings:
@@ -63,7 +64,7 @@ def picard_settings(cfg) -> PicardSettings:
                           n.max_iterations, n.linear_solver, n.anderson_depth,
                           n.reuse_factorization, n.quadrature_degree, n.extrapolate,
                           n.krylov_rtol, n.krylov_max_iterations, cfg.time.scheme,
-                          n.fixed_iterations)
+                          n.fixed_iterations, n.convection)
 
 
 class RegularizedFlow(StokesState):
@@ -125,7 +126,7 @@ class RegularizedFlow(StokesState):
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
             side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None,
             weak_walls=self.weak_walls(),
-            surface=self._surface_tension(ds))
+            surface=self._surface_tension(ds), convection=self.settings.convection)
         self.rhs_terms = rhs
         a = sum(self.terms.values())
         L = sum(rhs.values())
@@ -137,7 +138,7 @@ class RegularizedFlow(StokesState):
         if s.linear_solver == "iterative":
             return self.iterative_solver(s.krylov_rtol, s.krylov_max_iterations)
         return DirectSolver(self.comm, s.linear_solver, prefix="dpc_flow_",
-                            krylov=s.reuse_factorization)
+                            krylov=s.reuse_factorization, symmetric=s.convection == "lagged")
 
     def iterative_solver(self, rtol: float, max_iterations: int,
                          prefix: str = "dpc_flow_") -> BlockSolver:
