@@ -109,9 +109,11 @@ class NumericsConfig(_Section):
         "step, viscosity and convection at the step's start (as Basilisk's granular.h); null: iterate "
         "to nonlinear_rtol", ge=1)
     convection: Literal["implicit", "lagged"] = _f(
-        "implicit", "", "Regularized Picard: the convection in the matrix, linearized at the "
-        "iterate (implicit), or wholly at the iterate on the right-hand side (lagged: the same "
-        "fixed point, a symmetric matrix that MUMPS factorizes as LDL^T at half the cost of LU)")
+        "implicit", "", "Picard fixed point of the regularized method (model stokes): the "
+        "convection in the matrix, linearized at the iterate (implicit), or wholly at the iterate "
+        "on the right-hand side (lagged: the same fixed point, a symmetric matrix that MUMPS "
+        "factorizes as LDL^T at about half the cost of LU); the augmented Lagrangian, Newton's "
+        "own iterations and the two-phase model keep their convection")
     anderson_depth: Count = _f(
         5, "", "Anderson acceleration of the fixed point: history length m (0 = plain Picard)",
         ge=0, le=50)
@@ -155,11 +157,6 @@ class NumericsConfig(_Section):
                                                   or self.nonlinear_solver != "picard"):
             raise ConfigError(f"numerics.fixed_iterations = {self.fixed_iterations}: only with "
                               f"numerics.method = regularized and nonlinear_solver = picard")
-        if self.convection == "lagged" and (self.method != "regularized"
-                                            or self.nonlinear_solver != "picard"):
-            raise ConfigError(f"numerics.convection = 'lagged': only with numerics.method = "
-                              f"regularized and nonlinear_solver = picard (got {self.method}, "
-                              f"{self.nonlinear_solver}); use implicit")
         if self.linear_solver == "iterative" and self.reuse_factorization:
             raise ConfigError("numerics.reuse_factorization = true: needs a direct "
                               "numerics.linear_solver (mumps or superlu_dist), not iterative")

@@ -62,9 +62,6 @@ class Config(_Section):
                               + ", ".join(repr(x) for x in shapes))
         if self.model.name == "savage_hutter":
             self._depth_averaged()
-        if self.model.name != "stokes" and self.numerics.convection != "implicit":
-            raise ConfigError(f"numerics.convection = {self.numerics.convection!r}: only with "
-                              f"model.name = stokes (got {self.model.name}); use implicit")
         if self.model.name == "two_phase":
             self._two_phase()
         if self.model.name == "stokes":
