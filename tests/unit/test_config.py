@@ -75,9 +75,11 @@ def test_rigid_yaml():
     assert cfg.geometry.area == pytest.approx(0.0628, abs=1e-4)
     assert cfg.time.max_steps == 2000
     assert cfg.gravity_vector == pytest.approx((0.0, -9.81))
-    # the file spells out the defaults, but for its error-controlled BDF2 step
+    # the file spells out the defaults, but for its error-controlled BDF2 step and the
+    # lagged convection (LDLᵀ)
     assert (cfg.time.scheme, cfg.time.tolerance, cfg.time.dt_max) == ("bdf2", 1e-4, 0.02)
-    assert load_config(RIGID, RIGID_BDF1) == load_config(None)
+    assert cfg.numerics.convection == "lagged"
+    assert load_config(RIGID, RIGID_BDF1 + ["numerics.convection=implicit"]) == load_config(None)
 
 
 def test_stable_yaml():
