@@ -14,9 +14,9 @@ from tests.helpers import RIGID_BDF1, ROOT, simulation
 #: A checkpoint written by the code before the redesign (commit d1fd579, dict state) at
 #: step 20 of this run, with its diagnostics.
 OLD_RUN = ROOT / "tests/data/checkpoint_d1fd579"
-#: the old checkpoint's run: rigid.yaml's fixed 1 ms BDF1 step of that time
+#: the old checkpoint's run: rigid.yaml's fixed 1 ms BDF1 step and implicit convection of that time
 OVERRIDES = ["geometry.mesh_size=0.04", "time.checkpoint_every=10", "time.output_every=10",
-             *RIGID_BDF1]
+             *RIGID_BDF1, "numerics.convection=implicit"]
 
 
 def test_state_round_trip_leaves_out_what_is_unset():

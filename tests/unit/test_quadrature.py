@@ -14,7 +14,8 @@ POLYNOMIAL = ("inertia", "pressure", "incompressibility")
 
 
 def _disc(degree, tagged=None):
-    over = ["geometry.mesh_size=0.04", f"numerics.quadrature_degree={'null' if degree is None else degree}"]
+    over = ["geometry.mesh_size=0.04", f"numerics.quadrature_degree={'null' if degree is None else degree}",
+            "numerics.convection=implicit"]   # the convection in the matrix (lagged: in the rhs)
     cfg = load_config(ROOT / "configs" / "rigid.yaml", over)
     return StokesDiscretization(tagged or build_mesh(cfg, MPI.COMM_SELF), cfg), cfg
 

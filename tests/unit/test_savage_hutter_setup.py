@@ -13,7 +13,8 @@ from dpcollapse.models.savage_hutter.setup import basal_friction, domain_end, se
 from tests.helpers import RIGID_BDF1, ROOT
 
 RIGID = ROOT / "configs" / "rigid.yaml"
-SH = ["model.name=savage_hutter", *RIGID_BDF1]   # bdf2 is refused with it
+SH = ["model.name=savage_hutter", *RIGID_BDF1,   # bdf2 is refused with it,
+      "numerics.convection=implicit"]                 # and the moving mesh's lagged convection
 
 
 def _cfg(*overrides):
