@@ -121,3 +121,17 @@ def test_other_methods_keep_their_convection():
     flow = make_flow(build_mesh(cfg, MPI.COMM_SELF), cfg)
     assert flow.solver.ksp.getPC().getType() == "lu"
     flow.destroy()
+
+
+def test_the_two_phase_model_keeps_lu_under_rigid_yaml():
+    """configs/rigid.yaml (lagged) on the two-phase model: its skew-symmetric convection stays
+    in the matrix, which is not symmetric — factorized by LU, never LDLᵀ."""
+    from dpcollapse.models.two_phase.adapter import TwoPhaseFactory
+
+    cfg = load_config(RIGID, ["model.name=two_phase", "numerics.ale=false", "time.scheme=bdf1",
+                              "time.tolerance=null", "geometry.mesh_size=0.05"])
+    assert cfg.numerics.convection == "lagged"
+    disc = TwoPhaseFactory.from_config(cfg).start(MPI.COMM_SELF)
+    assert disc.flow.settings.convection == "implicit"
+    assert disc.flow.solver.ksp.getPC().getType() == "lu" and not disc.flow.solver.symmetric
+    disc.destroy()

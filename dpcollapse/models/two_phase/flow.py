@@ -16,6 +16,8 @@ u^{n+1} with the same scheme and the same sub-steps as c; they do not enter the 
 
 from __future__ import annotations
 
+import dataclasses
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,7 +60,10 @@ class TwoPhaseFlow(RegularizedFlow):
     def __init__(self, tagged, params: FlowParameters, settings: PicardSettings, light: LightFluid):
         self.light = light
         self.tracers: dict[str, VolumeFraction] = {}
-        super().__init__(tagged, params, settings)
+        # its convection is the skew-symmetric one, in the matrix: the matrix is not
+        # symmetric, so never the lagged convection's LDLᵀ (numerics.convection is the
+        # moving mesh's)
+        super().__init__(tagged, params, dataclasses.replace(settings, convection="implicit"))
         u = ufl.split(self.solution)[0]
         self.fraction.bind(u)
         outflow = self._tags_of(BoundaryKind.OUTFLOW)
