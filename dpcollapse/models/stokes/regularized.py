@@ -58,15 +58,14 @@ class PicardSettings:
 
 
 def picard_settings(cfg) -> PicardSettings:
-    """The fixed-point settings of ``numerics`` (``numerics.convection`` is the moving mesh's,
-    model stokes: the two-phase model keeps its skew-symmetric convection in the matrix)."""
+    """The fixed-point settings of ``numerics`` (``numerics.convection`` is the moving mesh's:
+    ``models.two_phase.flow.TwoPhaseFlow`` keeps its skew-symmetric convection in the matrix)."""
     n = cfg.numerics
-    convection = n.convection if cfg.model.name == "stokes" else "implicit"
     return PicardSettings(n.epsilon, n.epsilon_friction, n.nonlinear_rtol, cfg.fixed_point_atol,
                           n.max_iterations, n.linear_solver, n.anderson_depth,
                           n.reuse_factorization, n.quadrature_degree, n.extrapolate,
                           n.krylov_rtol, n.krylov_max_iterations, cfg.time.scheme,
-                          n.fixed_iterations, convection)
+                          n.fixed_iterations, n.convection)
 
 
 class RegularizedFlow(StokesState):
