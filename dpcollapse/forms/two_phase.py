@@ -6,6 +6,8 @@ With c ∈ [0, 1] the granular volume fraction (DG0)::
     ρ(c) = c ρ_g + (1 − c) ρ_a                                        "mixture_density"
     σ'   = S D(u),  S = c S_g(u, p) + (1 − c) 2η_a  (arithmetic)      ``MixtureRheology``
                   or 1/S = c/S_g(u, p) + (1 − c)/(2η_a)  (harmonic, ``model.viscosity_average``)
+    κ_mix = w(c) κ(p),  w = c (volume), H(c − ½) (sharp), min(1, 2c) (saturated), H(c) (grains)
+                  (``model.yield_weighting``, ``yield_weight``)
     ∂c/∂t + ∇·(c u) = 0                                                "fraction_flux"
 
 The flow terms are those of ``forms.picard`` with ρ(c) and the mixture law. The volume
@@ -20,7 +22,7 @@ from __future__ import annotations
 
 import ufl
 
-from dpcollapse.rheology.kinematics import strain_rate
+from dpcollapse.rheology.kinematics import frobenius_norm_sq, strain_rate
 
 
 def mixture(c, granular, light):
@@ -61,6 +63,44 @@ def viscosity_mixture(c, granular, light, average: str = "arithmetic"):
     return mixture(c, granular, light)
 
 
+#: how a cell of fraction c carries the grains' yield stress κ(p) (``model.yield_weighting``)
+YIELD_WEIGHTINGS = ("volume", "sharp", "saturated", "grains")
+
+#: the floor on c under the granular secant viscosity's w(c)/c (w/c ≤ 2 where w ≠ 0)
+FRACTION_FLOOR = 1.0e-12
+
+
+def _known_weighting(weighting: str) -> str:
+    """``weighting`` if it is one of ``YIELD_WEIGHTINGS``, else ValueError naming them."""
+    if weighting not in YIELD_WEIGHTINGS:
+        raise ValueError(f"yield weighting {weighting!r}: one of {', '.join(YIELD_WEIGHTINGS)}")
+    return weighting
+
+
+def yield_weight(c, weighting: str = "volume"):
+    """w(c), the share of the grains' yield stress κ(p) a cell of fraction c carries::
+
+        volume     w = c               the volume average of κ and the light fluid's 0
+        sharp      w = H(c − ½)        the grains' own κ where the cell is mostly grains
+                                       (the VOF interface c = ½), none elsewhere; H(0) = 1
+        saturated  w = min(1, 2c)      continuous: the volume weighting stretched so that a
+                                       cell at the interface, c = ½, already has the full κ
+        grains     w = H(c − 10⁻¹²)    the grains' own κ wherever there are grains (c above
+                                       ``FRACTION_FLOOR``)
+
+    Under the volume weighting a cell on a slope θ holds only if c μ_s ≥ tan θ (issue 27);
+    under ``sharp`` every cell with c ≥ ½ holds where the grains would, under ``saturated``
+    every cell with c ≥ tan θ/(2 μ_s), under ``grains`` every cell with grains."""
+    weighting = _known_weighting(weighting)
+    if weighting == "sharp":
+        return ufl.conditional(ufl.ge(c, 0.5), 1.0, 0.0)
+    if weighting == "saturated":
+        return ufl.min_value(2.0 * c, 1.0)
+    if weighting == "grains":
+        return ufl.conditional(ufl.gt(c, FRACTION_FLOOR), 1.0, 0.0)
+    return c
+
+
 class MixtureRheology:
     """The granular law in the granular phase, a Newtonian fluid η_a in the light phase,
     σ' = S D(u) with S (the secant viscosity of ``rheology.base``) averaged by ``average``::
@@ -68,14 +108,22 @@ class MixtureRheology:
         arithmetic   S = c S_g(u, p) + (1 − c) 2η_a
         harmonic     1/S = c/S_g(u, p) + (1 − c)/(2η_a)
 
-    (the rate viscosities likewise with η_a; the yield stress is c κ(p) either way). It offers
-    the ``Rheology`` protocol to ``forms.picard`` (the law is any Rheology)."""
+    (the rate viscosities likewise with η_a). The yield stress of the mixture is
+    κ_mix = w(c) κ(p) (``yield_weight``, ``model.yield_weighting``): with the volume weighting
+    w = c it is the c-weighted part of c S_g, with another w the granular phase carries it as
+    S_g^w = min(w(c)/c · κ(p)/|D|_ε + 2η, 2η_max) in place of S_g, so that (arithmetic)::
+
+        S = w(c) κ(p)/|D|_ε + c 2η + (1 − c) 2η_a        (sharp: w = H(c − ½), no cap)
+
+    It offers the ``Rheology`` protocol to ``forms.picard`` (the law is any Rheology)."""
 
     rate_dependent = True
 
-    def __init__(self, law, fraction, light_viscosity, average: str = "arithmetic"):
+    def __init__(self, law, fraction, light_viscosity, average: str = "arithmetic",
+                 yield_weighting: str = "volume"):
         self.law, self.c, self.eta_a = law, fraction, light_viscosity
         self.average = _known_average(average)
+        self.yield_weighting = _known_weighting(yield_weighting)
         self.cohesion = law.cohesion
         self.viscosity_cap = law.viscosity_cap
 
@@ -83,8 +131,20 @@ class MixtureRheology:
         return viscosity_mixture(self.c, granular, light, self.average)
 
     def yield_stress(self, p):
-        """c κ(p) [Pa]."""
-        return self.c * self.law.yield_stress(p)
+        """κ_mix = w(c) κ(p) [Pa] (volume: c κ(p); sharp: H(c − ½) κ(p))."""
+        return yield_weight(self.c, self.yield_weighting) * self.law.yield_stress(p)
+
+    def _granular_secant(self, u, p, epsilon):
+        """S_g (volume), else S_g^w = min(w/c · κ(p)/|D|_ε + 2η, 2η_max): the granular secant
+        viscosity whose c-weighted part has the yield stress w(c) κ(p)."""
+        if self.yield_weighting == "volume":
+            return self.law.secant_viscosity(u, p, epsilon)
+        share = yield_weight(self.c, self.yield_weighting) / ufl.max_value(self.c, FRACTION_FLOOR)
+        rate = ufl.sqrt(frobenius_norm_sq(strain_rate(u)) + epsilon**2)
+        S = share * self.law.yield_stress(p) / rate + 2.0 * self.law.rate_viscosity(u, p, epsilon)
+        if self.law.viscosity_cap is not None:
+            S = ufl.min_value(S, 2.0 * self.law.viscosity_cap)
+        return S
 
     def rate_viscosity(self, u, p, epsilon):
         """η_g and η_a averaged (arithmetic: c η_g + (1 − c) η_a) [Pa s]."""
@@ -94,8 +154,9 @@ class MixtureRheology:
         return self._mix(self.law.capped_rate_viscosity(u, p, epsilon), self.eta_a)
 
     def secant_viscosity(self, u, p, epsilon):
-        """S of S_g and 2η_a averaged (arithmetic: c S_g(u, p) + (1 − c) 2η_a) [Pa s]."""
-        return self._mix(self.law.secant_viscosity(u, p, epsilon), 2.0 * self.eta_a)
+        """S of S_g and 2η_a averaged (arithmetic: c S_g(u, p) + (1 − c) 2η_a) [Pa s], S_g
+        with the yield stress of the weighting (``_granular_secant``)."""
+        return self._mix(self._granular_secant(u, p, epsilon), 2.0 * self.eta_a)
 
     def deviatoric_stress(self, u, p, epsilon):
         return self.secant_viscosity(u, p, epsilon) * strain_rate(u)

@@ -136,6 +136,8 @@ def test_gravity_on_a_slope():
         ("time:\n  output_every: 2.5\n", "time.output_every = 2.5: must be an integer"),
         ("numerics:\n  ale: 3\n", "numerics.ale = 3: must be true or false"),
         ("numerics:\n  linear_solver: lu\n", "numerics.linear_solver = 'lu': must be one of"),
+        ("model:\n  name: two_phase\n  yield_weighting: hard\n",
+         "model.yield_weighting = 'hard': must be one of 'volume', 'sharp', 'saturated' or 'grains'"),
         ("material:\n  density: -3.0\n", "material.density = -3.0: must be > 0 (kg/m^3)"),
         ("material:\n  density: 0\n", "material.density = 0: must be > 0 (kg/m^3)"),
         ("geometry:\n  flank_angle: 95.0\n",

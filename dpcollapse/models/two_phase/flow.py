@@ -49,6 +49,7 @@ class LightFluid:
     compression: float    # C of the interface compression
     grad_div: float = 0.0  # γ of the grad-div term γ S (∇·u)(∇·v)
     viscosity_average: str = "arithmetic"  # of S_g and 2η_a (forms.two_phase)
+    yield_weighting: str = "volume"  # κ_mix = w(c) κ(p) (forms.two_phase.yield_weight)
 
 
 class TwoPhaseFlow(RegularizedFlow):
@@ -98,7 +99,7 @@ class TwoPhaseFlow(RegularizedFlow):
         self._rho = rho = mixture(clamped, p.density, light.density)
         f, eps, eps_f, dx, ds, n = self._coefficients()
         self.law = law = MixtureRheology(p.rheology, clamped, light.viscosity,
-                                         light.viscosity_average)
+                                         light.viscosity_average, light.yield_weighting)
         walls = [(f"{b.name}_friction", b.friction, b.tag) for b in p.boundaries if b.has_friction]
         self.terms, self.rhs_terms = picard_terms(
             law, rho=rho, dt=self.dt, body_force=f, epsilon=eps, epsilon_friction=eps_f,
