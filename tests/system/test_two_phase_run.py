@@ -98,3 +98,31 @@ def test_the_a142_deposit_comes_to_rest(tmp_path):
     assert 0.32 - 1e-9 <= summary["front"] <= 0.36 + 1e-9
     assert abs(summary["area_drift"]) < 1e-3
     assert summary["fraction_max"] < 1.01
+
+
+#: issue 27's static heap (docs/benchmarks/2026-12-04-two-phase-static-heap.md): rigid.yaml's
+#: material as a 0.1 m heap whose flank rises at 20° (μ_s at 25.5°), under the light fluid,
+#: 2 cm cells; the rest rule off
+HEAP = ["time.scheme=bdf1", "time.tolerance=null", "model.name=two_phase", "numerics.ale=false",
+        "geometry.height=0.1", "geometry.base_length=0.4", "geometry.flank_angle=20",
+        "geometry.mesh_size=0.02", "model.box_length=0.6", "model.box_height=0.15",
+        "model.adaptive_dt=true", "time.dt=5e-3", "time.end_time=0.3", "time.rest_speed=1e-9",
+        "time.output_every=1000", "time.checkpoint_every=1000"]
+
+
+def test_a_heap_below_the_friction_angle_holds_only_with_the_grains_yield_stress(tmp_path):
+    """model.yield_weighting: with the grains' own yield stress in every cell with grains
+    (grains) the heap stays at rest (measured 5e-4 mm/s after the start, 8.4e-4 m/s at most in
+    the second step); with the volume-weighted c κ(p) (the default) its flank flows (measured
+    30 mm/s at 0.1–0.25 s: cut cells with c < tan θ/μ_s cannot hold)."""
+    speeds = {}
+    for weighting in ("grains", "volume"):
+        out = tmp_path / weighting
+        summary = simulation("rigid.yaml", HEAP + [f"model.yield_weighting={weighting}"], out,
+                             comm=MPI.COMM_SELF).run()
+        assert summary["status"] == "end_time", summary
+        d = read_diagnostics(out / "diagnostics.csv")
+        speeds[weighting] = np.array(d["max_speed"])
+    grains, volume = speeds["grains"], speeds["volume"]
+    assert grains[2:].max() < 1e-5 and grains.max() < 1e-3, grains   # ≤ 1 mm/s: issue 27's rule
+    assert volume[-5:].min() > 1e-2, volume
