@@ -112,8 +112,7 @@ HEAP = ["time.scheme=bdf1", "time.tolerance=null", "model.name=two_phase", "nume
 
 def test_a_heap_below_the_friction_angle_holds_only_with_the_grains_yield_stress(tmp_path):
     """model.yield_weighting: with the grains' own yield stress in every cell with grains
-    (grains) the heap stays at rest (measured 5e-4 mm/s after the start, 8.4e-4 m/s at most in
-    the second step); with the volume-weighted c κ(p) (the default) its flank flows (measured
+    (grains) the heap stays at rest (measured 5e-4 mm/s after the start); with the volume-weighted c κ(p) (the default) its flank flows (measured
     30 mm/s at 0.1–0.25 s: cut cells with c < tan θ/μ_s cannot hold)."""
     speeds = {}
     for weighting in ("grains", "volume"):
@@ -124,5 +123,8 @@ def test_a_heap_below_the_friction_angle_holds_only_with_the_grains_yield_stress
         d = read_diagnostics(out / "diagnostics.csv")
         speeds[weighting] = np.array(d["max_speed"])
     grains, volume = speeds["grains"], speeds["volume"]
-    assert grains[2:].max() < 1e-5 and grains.max() < 1e-3, grains   # ≤ 1 mm/s: issue 27's rule
+    # ≤ 1 mm/s throughout (issue 27's rule; the start from rest takes 2–3 steps to settle:
+    # 8.4e-4 m/s at most on DOLFINx 0.5.2, 5.9e-4 m/s in the third step on the 0.11 wheel),
+    # then the regularization's creep, 5.2e-7 m/s on both
+    assert grains.max() < 1e-3 and grains[-5:].max() < 1e-5, grains
     assert volume[-5:].min() > 1e-2, volume
