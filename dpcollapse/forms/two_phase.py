@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import ufl
 
-from dpcollapse.rheology.kinematics import frobenius_norm_sq, strain_rate
+from dpcollapse.rheology.kinematics import regularized_secant, strain_rate
 
 
 def mixture(c, granular, light):
@@ -48,17 +48,17 @@ def harmonic_mixture(c, granular, light):
     return light / ((1.0 - c) + c * light / floor)
 
 
-def _known_average(average: str) -> str:
-    """``average`` if it is one of ``VISCOSITY_AVERAGES``, else ValueError naming them."""
-    if average not in VISCOSITY_AVERAGES:
-        raise ValueError(f"viscosity average {average!r}: one of {', '.join(VISCOSITY_AVERAGES)}")
-    return average
+def _one_of(value: str, allowed: tuple[str, ...], what: str) -> str:
+    """``value`` if it is one of ``allowed``, else ValueError naming them."""
+    if value not in allowed:
+        raise ValueError(f"{what} {value!r}: one of {', '.join(allowed)}")
+    return value
 
 
 def viscosity_mixture(c, granular, light, average: str = "arithmetic"):
     """The mixture of a granular and a light viscosity by ``average`` (``VISCOSITY_AVERAGES``):
     arithmetic c a_g + (1 − c) a_a, harmonic 1/(c/a_g + (1 − c)/a_a)."""
-    if _known_average(average) == "harmonic":
+    if _one_of(average, VISCOSITY_AVERAGES, "viscosity average") == "harmonic":
         return harmonic_mixture(c, granular, light)
     return mixture(c, granular, light)
 
@@ -68,13 +68,6 @@ YIELD_WEIGHTINGS = ("volume", "sharp", "saturated", "grains")
 
 #: the floor on c under the granular secant viscosity's w(c)/c (w/c ≤ 2 where w ≠ 0)
 FRACTION_FLOOR = 1.0e-12
-
-
-def _known_weighting(weighting: str) -> str:
-    """``weighting`` if it is one of ``YIELD_WEIGHTINGS``, else ValueError naming them."""
-    if weighting not in YIELD_WEIGHTINGS:
-        raise ValueError(f"yield weighting {weighting!r}: one of {', '.join(YIELD_WEIGHTINGS)}")
-    return weighting
 
 
 def yield_weight(c, weighting: str = "volume"):
@@ -91,7 +84,7 @@ def yield_weight(c, weighting: str = "volume"):
     Under the volume weighting a cell on a slope θ holds only if c μ_s ≥ tan θ (issue 27);
     under ``sharp`` every cell with c ≥ ½ holds where the grains would, under ``saturated``
     every cell with c ≥ tan θ/(2 μ_s), under ``grains`` every cell with grains."""
-    weighting = _known_weighting(weighting)
+    weighting = _one_of(weighting, YIELD_WEIGHTINGS, "yield weighting")
     if weighting == "sharp":
         return ufl.conditional(ufl.ge(c, 0.5), 1.0, 0.0)
     if weighting == "saturated":
@@ -122,8 +115,8 @@ class MixtureRheology:
     def __init__(self, law, fraction, light_viscosity, average: str = "arithmetic",
                  yield_weighting: str = "volume"):
         self.law, self.c, self.eta_a = law, fraction, light_viscosity
-        self.average = _known_average(average)
-        self.yield_weighting = _known_weighting(yield_weighting)
+        self.average = _one_of(average, VISCOSITY_AVERAGES, "viscosity average")
+        self.yield_weighting = _one_of(yield_weighting, YIELD_WEIGHTINGS, "yield weighting")
         self.cohesion = law.cohesion
         self.viscosity_cap = law.viscosity_cap
 
@@ -140,11 +133,8 @@ class MixtureRheology:
         if self.yield_weighting == "volume":
             return self.law.secant_viscosity(u, p, epsilon)
         share = yield_weight(self.c, self.yield_weighting) / ufl.max_value(self.c, FRACTION_FLOOR)
-        rate = ufl.sqrt(frobenius_norm_sq(strain_rate(u)) + epsilon**2)
-        S = share * self.law.yield_stress(p) / rate + 2.0 * self.law.rate_viscosity(u, p, epsilon)
-        if self.law.viscosity_cap is not None:
-            S = ufl.min_value(S, 2.0 * self.law.viscosity_cap)
-        return S
+        return regularized_secant(share * self.law.yield_stress(p), self.law.rate_viscosity(u, p, epsilon),
+                                  u, epsilon, self.law.viscosity_cap)
 
     def rate_viscosity(self, u, p, epsilon):
         """η_g and η_a averaged (arithmetic: c η_g + (1 − c) η_a) [Pa s]."""

@@ -22,3 +22,13 @@ def strain_rate(u):
 def frobenius_norm_sq(tensor):
     """|T|² = T:T."""
     return ufl.inner(tensor, tensor)
+
+
+def regularized_secant(yield_stress, rate_viscosity, u, epsilon, cap=None):
+    """S = min(κ/√(|D(u)|² + ε²) + 2η, 2η_max) [Pa s]: the coefficient of D(v) in the Picard
+    linearization of σ' = κ D/|D| + 2η D (no min when ``cap`` η_max is None)."""
+    S = yield_stress / ufl.sqrt(frobenius_norm_sq(strain_rate(u)) + epsilon**2) + 2.0 * rate_viscosity
+    if cap is not None:
+        S = ufl.min_value(S, 2.0 * cap)
+    return S
+

@@ -43,7 +43,7 @@ from typing import ClassVar, Optional
 import numpy as np
 import ufl
 
-from dpcollapse.rheology.kinematics import frobenius_norm_sq, positive_part, strain_rate
+from dpcollapse.rheology.kinematics import frobenius_norm_sq, positive_part, regularized_secant, strain_rate
 
 PRESSURE_FLOOR = 1e-10
 """Pressure [Pa] added to [p]_+ under square roots (I and the rate-dependent viscosity)."""
@@ -175,11 +175,8 @@ class MuI:
     def secant_viscosity(self, u, p, epsilon):
         """Coefficient of D(v) in the Picard linearization:
         S = min(κ(p)/√(|D|²+ε²) + 2 η_μI, 2 η_max) (no min when viscosity_cap is None)."""
-        D = strain_rate(u)
-        S = self.yield_stress(p) / ufl.sqrt(frobenius_norm_sq(D) + epsilon**2) + 2.0 * self.rate_viscosity(u, p, epsilon)
-        if self.viscosity_cap is not None:
-            S = ufl.min_value(S, 2.0 * self.viscosity_cap)
-        return S
+        return regularized_secant(self.yield_stress(p), self.rate_viscosity(u, p, epsilon), u,
+                                  epsilon, self.viscosity_cap)
 
     def deviatoric_stress(self, u, p, epsilon):
         """σ'(u, p) = S(u, p) D(u) [Pa]."""

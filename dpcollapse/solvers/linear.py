@@ -3,7 +3,7 @@
 The KSP is kept across solves: when the matrix keeps its nonzero pattern PETSc redoes
 only the numeric factorization, and the symbolic analysis is reused. A symmetric matrix
 (``symmetric=True``: the caller guarantees it, e.g. the Picard system with the convection
-lagged, or the mesh velocity's) is factorized by MUMPS as LDLᵀ (PETSc's Cholesky PC; MUMPS
+lagged) is factorized by MUMPS as LDLᵀ (PETSc's Cholesky PC; MUMPS
 SYM = 2, symmetric indefinite, which the saddle point needs): half the flops and storage of
 LU (measured on the rigid collapse's 9428-dof Taylor–Hood system: 11.0 against 20.0 ms).
 """

@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dpcollapse.config import Config, load_config, with_overrides
+from dpcollapse.config import Config, NumericsConfig, load_config, with_overrides
 from dpcollapse.errors import ConfigError
 from dpcollapse.models.savage_hutter import Grid, SavageHutter, simulate
 from dpcollapse.models.savage_hutter.exact import mangeney_dam_break
@@ -204,9 +204,9 @@ def sh_config(cfg: Config, dx: float, x_max: float | None = None, order: int = 2
     geo = cfg.geometry
     x_max = x_max if x_max is not None else geo.base_length + 6.0 * geo.height + 0.2
     n = max(2, math.ceil(x_max / dx - 1e-9))
-    # numerics.convection is the moving mesh's Picard setting, which the 1D model refuses
-    return with_overrides(cfg, ["model.name=savage_hutter", "numerics.convection=implicit",
-                                f"model.order={order}",
+    # the 1D model reads no numerics (it refuses the 2D config's that differ from the defaults)
+    two_d_free = cfg.model_copy(update={"numerics": NumericsConfig()})
+    return with_overrides(two_d_free, ["model.name=savage_hutter", f"model.order={order}",
                                 f"model.n_cells={n}", "model.x_min=0", f"model.x_max={n * dx!r}",
                                 "model.left=wall", "model.right=open", "model.shape_factor=1",
                                 f"model.front_threshold={FRONT_THRESHOLD!r}"])
@@ -245,8 +245,7 @@ def two_phase_config(cfg: Config, grid: Grid, end_time: float,
     cell = min(g.mesh_size, g.base_length / cells_across)
     height = g.height + max(0.25 * g.height, 8.0 * cell)
     return with_overrides(cfg, [
-        "model.name=two_phase", "numerics.ale=false", "numerics.convection=implicit",
-        f"model.box_length={grid.x_max!r}",
+        "model.name=two_phase", "numerics.ale=false", f"model.box_length={grid.x_max!r}",
         f"model.box_height={height!r}", f"model.min_cell={cell!r}",
         f"model.max_cell={TWO_PHASE_MAX_CELL!r}", "model.adaptive_dt=true", "time.dt=5e-3",
         f"time.end_time={end_time!r}"])
