@@ -41,9 +41,11 @@ class MeshMotion:
         source = getattr(flow, "motion_source", flow.u_old)
         a, L = mesh_velocity_forms(ufl.TrialFunction(Vw), ufl.TestFunction(Vw), source,
                                    fem.Constant(mesh, compat.ScalarType(penalty)), ds_surface)
-        self.system = LinearSystem(a, L, self._slip_bcs(Vw))
+        self.system = LinearSystem(a, L, self._slip_bcs(Vw), homogeneous=True)
         self._slanted = self._slanted_sides(Vw)
-        self.solver = DirectSolver(mesh.comm, linear_solver, prefix="dpc_ale_")
+        # the extension's matrix is symmetric positive definite: Cholesky
+        self.solver = DirectSolver(mesh.comm, linear_solver, prefix="dpc_ale_",
+                                   positive_definite=True)
         # geometry node -> dof of Vw (P1 on a P1 mesh: same local vertex order per cell)
         gdm = compat.geometry_dofmap(mesh)
         vdm = compat.cell_dofs(Vw)

@@ -188,8 +188,8 @@ class StokesState:
 
     # ------------------------------------------------------------------ conditions
     def _make_system(self, a, L):
-        """The linear system of (a, L) with the Dirichlet conditions; periodic when the scene
-        has a periodic pair (the slave side carries the translation onto its master)."""
+        """The linear system of (a, L) with the Dirichlet conditions (all zero); periodic when
+        the scene has a periodic pair (the slave side carries the translation onto its master)."""
         bcs = self._dirichlet_bcs()
         slave = self.params.periodic_slave
         if slave is not None:
@@ -197,7 +197,7 @@ class StokesState:
 
             return periodic_system(a, L, bcs, self.W, self.tagged.facet_tags, slave.tag,
                                    slave.translation)
-        return LinearSystem(a, L, bcs)
+        return LinearSystem(a, L, bcs, homogeneous=True)   # zero_dirichlet only
 
     def _has_tag(self, tag: int) -> bool:
         local = bool(np.any(self.tagged.facet_tags.values == tag))
