@@ -100,3 +100,36 @@ def simulation(config, overrides=(), run_dir=None, comm=None, resume=False, even
     cfg = load_config(path, list(overrides))
     return Simulation(cfg, run_dir, quiet=True, resume=resume, comm=comm or MPI.COMM_WORLD,
                       events=events)
+
+
+def refusal_message(config, override: str, key: str, capsys) -> str:
+    """Assert that ``--set override`` on ``config`` is refused in one line naming ``key``,
+    by ``load_config`` (ConfigError) and by ``dpcollapse run`` (exit 2, the key on stderr);
+    returns the message for further checks."""
+    import pytest
+
+    from dpcollapse.cli import main
+    from dpcollapse.config import load_config
+    from dpcollapse.errors import ConfigError
+
+    with pytest.raises(ConfigError) as err:
+        load_config(config, [override])
+    message = str(err.value)
+    assert key in message and "\n" not in message
+    assert main(["run", str(config), "--set", override, "--out", "/nonexistent/x"]) == 2
+    assert key in capsys.readouterr().err
+    return message
+
+
+def petsc_matrix(dense):
+    """A serial PETSc AIJ matrix with the nonzeros of a dense numpy array."""
+    import numpy as np
+    from mpi4py import MPI
+    from petsc4py import PETSc
+
+    A = PETSc.Mat().createAIJ(dense.shape, comm=MPI.COMM_SELF)
+    A.setUp()
+    for i, j in zip(*np.nonzero(dense)):
+        A.setValue(i, j, dense[i, j])
+    A.assemble()
+    return A

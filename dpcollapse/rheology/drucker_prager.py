@@ -14,9 +14,7 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar
 
-import ufl
-
-from dpcollapse.rheology.kinematics import frobenius_norm_sq, positive_part, strain_rate
+from dpcollapse.rheology.kinematics import frobenius_norm_sq, positive_part, regularized_secant, strain_rate
 
 __all__ = ["DruckerPrager", "frobenius_norm_sq", "positive_part", "strain_rate"]
 
@@ -69,8 +67,7 @@ class DruckerPrager:
 
     def secant_viscosity(self, u, p, epsilon):
         """The coefficient of D(v) in the Picard linearization: 2η + κ(p)/√(|D(u)|²+ε²)."""
-        D = strain_rate(u)
-        return 2.0 * self.viscosity + self.yield_stress(p) / ufl.sqrt(frobenius_norm_sq(D) + epsilon**2)
+        return regularized_secant(self.yield_stress(p), self.viscosity, u, epsilon)
 
     def deviatoric_stress(self, u, p, epsilon):
         """σ'(u, p) of the regularized law [Pa]."""

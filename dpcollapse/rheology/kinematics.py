@@ -31,4 +31,3 @@ def regularized_secant(yield_stress, rate_viscosity, u, epsilon, cap=None):
     if cap is not None:
         S = ufl.min_value(S, 2.0 * cap)
     return S
-

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from mpi4py import MPI
-from petsc4py import PETSc
 
 from dpcollapse import compat
 from dpcollapse.ale.motion import MeshMotion
@@ -14,7 +13,7 @@ from dpcollapse.config import load_config
 from dpcollapse.models.stokes.discretization import make_flow
 from dpcollapse.scenes.registry import build_mesh
 from dpcollapse.solvers.linear import DirectSolver
-from tests.helpers import ROOT
+from tests.helpers import ROOT, petsc_matrix
 
 RIGID = ROOT / "configs" / "rigid.yaml"
 
@@ -24,11 +23,7 @@ def test_positive_definite_solver_is_cholesky_with_lu_solution():
     rng = np.random.default_rng(5)
     K = rng.normal(size=(n, n))
     dense = K @ K.T + n * np.eye(n)
-    A = PETSc.Mat().createAIJ(dense.shape, comm=MPI.COMM_SELF)
-    A.setUp()
-    for i in range(n):
-        A.setValues(i, list(range(n)), dense[i])
-    A.assemble()
+    A = petsc_matrix(dense)
     b = A.createVecLeft()
     b.array[:] = rng.normal(size=n)
     solutions = []

@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from mpi4py import MPI
-from petsc4py import PETSc
 
 from dpcollapse.cli import main
 from dpcollapse.config import load_config
@@ -15,7 +14,7 @@ from dpcollapse.forms.picard import picard_terms
 from dpcollapse.models.stokes.discretization import make_flow
 from dpcollapse.scenes.registry import build_mesh
 from dpcollapse.solvers.linear import DirectSolver
-from tests.helpers import ROOT
+from tests.helpers import ROOT, petsc_matrix
 
 RIGID = ROOT / "configs" / "rigid.yaml"
 #: a coarse, tightly converged rigid collapse: 5 steps of 5 ms from rest (convection
@@ -85,12 +84,7 @@ def test_symmetric_direct_solver_solves_a_saddle_point_as_lu_does():
     K = K @ K.T + n * np.eye(n)
     B = rng.normal(size=(m, n))
     dense = np.block([[K, B.T], [B, np.zeros((m, m))]])
-    A = PETSc.Mat().createAIJ(dense.shape, comm=MPI.COMM_SELF)
-    A.setUp()
-    rows, cols = np.nonzero(dense)
-    for i, j in zip(rows, cols):
-        A.setValue(i, j, dense[i, j])
-    A.assemble()
+    A = petsc_matrix(dense)
     b = A.createVecLeft()
     b.array[:] = rng.normal(size=n + m)
     solutions = []

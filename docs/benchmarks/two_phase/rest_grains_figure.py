@@ -4,28 +4,24 @@ panel (issue 27, docs/benchmarks/2026-12-04-two-phase-rest-grains.md):
     python docs/benchmarks/two_phase/rest_grains_figure.py OUT.png LABEL=RUN_DIR@T ...
 
 Reads the output nearest each time from RUN_DIR/fields/step_*.h5 (the DG0 volume fraction)
-with h5py; the view is the box of the cells with c > 0.01, padded.
+with ``yield_weighting_heap.fraction``; the view is the box of the cells with c > 0.01, padded.
 """
 
 import glob
 import sys
 
-import h5py
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.tri import Triangulation
+from yield_weighting_heap import fraction   # the DG0 volume fraction of one output (h5py)
 
 
 def read(path):
-    with h5py.File(path) as f:
-        x = f["Mesh/mesh/geometry"][:]
-        cells = f["Mesh/mesh/topology"][:]
-        group = f["Function/volume_fraction"]
-        key = list(group.keys())[0]
-        return x, cells, np.clip(group[key][:, 0], 0, 1), float(key.replace("_", "."))
+    x, cells, c, t = fraction(path)
+    return x, cells, np.clip(c, 0, 1), t
 
 
 def nearest(run, t):

@@ -16,9 +16,7 @@ u^{n+1} with the same scheme and the same sub-steps as c; they do not enter the 
 
 from __future__ import annotations
 
-import dataclasses
-
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import ufl
@@ -64,7 +62,7 @@ class TwoPhaseFlow(RegularizedFlow):
         # its convection is the skew-symmetric one, in the matrix: the matrix is not
         # symmetric, so never the lagged convection's LDLᵀ (numerics.convection is the
         # moving mesh's)
-        super().__init__(tagged, params, dataclasses.replace(settings, convection="implicit"))
+        super().__init__(tagged, params, replace(settings, convection="implicit"))
         u = ufl.split(self.solution)[0]
         self.fraction.bind(u)
         outflow = self._tags_of(BoundaryKind.OUTFLOW)
