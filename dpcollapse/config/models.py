@@ -117,10 +117,11 @@ class TwoPhaseModel(_Section):
         "1/S = c/S_g + (1 - c)/(2 eta_a) (Gerris; measured to stall the fixed point on the column: "
         "docs/benchmarks/2026-12-04-light-fluid.md)")
     yield_weighting: Literal["volume", "sharp", "saturated", "grains"] = _f(
-        "volume", "", "Yield stress of a cell of fraction c, kappa_mix = w(c) kappa(p): volume "
-        "w = c; sharp w = H(c - 1/2), the grains' own yield stress where the cell is mostly "
-        "grains; saturated w = min(1, 2c); grains w = H(c), wherever there are grains (issue 27: docs/benchmarks/"
-        "2026-12-04-two-phase-yield-weighting.md)")
+        "grains", "", "Yield stress of a cell of fraction c, kappa_mix = w(c) kappa(p): grains "
+        "w = H(c), the grains' own wherever there are grains (the default since 2026-12-04: holds "
+        "a heap below the friction angle, deposits come to rest); volume w = c (the default "
+        "before: reproduces earlier runs); sharp w = H(c - 1/2); saturated w = min(1, 2c) "
+        "(issue 27: docs/benchmarks/2026-12-04-two-phase-yield-weighting.md)")
     courant: Number = _f(
         0.4, "", "Courant number of the sub-cycled explicit advection of c (outflow of a cell per "
         "sub-step over its content)", gt=0, le=0.5)

@@ -100,8 +100,8 @@ def test_unknown_weighting_refused_in_the_form():
         MixtureRheology(LAW, 0.5, 1e-2, yield_weighting="hard")
 
 
-def test_the_key_defaults_to_volume():
-    assert load_config(CONFIG).model.yield_weighting == "volume"
+def test_the_key_defaults_to_grains():
+    assert load_config(CONFIG).model.yield_weighting == "grains"
     assert load_config(CONFIG, ["model.yield_weighting=sharp"]).model.yield_weighting == "sharp"
 
 

@@ -47,7 +47,7 @@ class LightFluid:
     compression: float    # C of the interface compression
     grad_div: float = 0.0  # γ of the grad-div term γ S (∇·u)(∇·v)
     viscosity_average: str = "arithmetic"  # of S_g and 2η_a (forms.two_phase)
-    yield_weighting: str = "volume"  # κ_mix = w(c) κ(p) (forms.two_phase.yield_weight)
+    yield_weighting: str = "grains"  # κ_mix = w(c) κ(p) (forms.two_phase.yield_weight)
 
 
 class TwoPhaseFlow(RegularizedFlow):
