@@ -118,7 +118,7 @@ class TwoPhaseModel(_Section):
         "docs/benchmarks/2026-12-04-light-fluid.md)")
     yield_weighting: Literal["volume", "sharp", "saturated", "grains"] = _f(
         "grains", "", "Yield stress of a cell of fraction c, kappa_mix = w(c) kappa(p): grains "
-        "w = H(c), the grains' own wherever there are grains (the default since 2026-12-04: holds "
+        "w = min(1, c/1e-6), the grains' own wherever there are grains (the default since 2026-12-04: holds "
         "a heap below the friction angle, deposits come to rest); volume w = c (the default "
         "before: reproduces earlier runs); sharp w = H(c - 1/2); saturated w = min(1, 2c) "
         "(issue 27: docs/benchmarks/2026-12-04-two-phase-yield-weighting.md)")

@@ -67,6 +67,15 @@ def test_yield_stress_and_secant_viscosity_follow_the_key(mesh, weighting, fract
     assert _mean(law.secant_viscosity(u, p, EPSILON), mesh) == pytest.approx(S, rel=1e-12)
 
 
+@pytest.mark.parametrize("fraction, expected", [(0.0, 0.0), (1e-13, 1e-7), (5e-7, 0.5),
+                                                (1e-6, 1.0), (2e-6, 1.0)])
+def test_grains_rises_continuously_over_the_haze(mesh, fraction, expected):
+    """grains: w = min(1, c/10⁻⁶), continuous: a round-off change δc of a haze cell moves w by
+    at most 10⁶ δc (the step H(c − 10⁻¹²) flipped between 1 and 2 ranks)."""
+    c = fem.Constant(mesh, compat.ScalarType(fraction))
+    assert _mean(yield_weight(c, "grains"), mesh) == pytest.approx(expected, rel=1e-12, abs=1e-15)
+
+
 def test_volume_is_the_law_s_own_secant_viscosity(mesh):
     """The default builds the very same UFL as before the key: c S_g + (1 − c) 2η_a."""
     c = fem.Constant(mesh, compat.ScalarType(0.3))
