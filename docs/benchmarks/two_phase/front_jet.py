@@ -18,17 +18,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import LogNorm  # noqa: E402
 from matplotlib.tri import Triangulation  # noqa: E402
-
-
-def _field(f, name):
-    group = f["Function/" + name]
-    key = list(group.keys())[0]
-    return float(key.replace("_", ".")), group[key][:]
+from yield_weighting_heap import field, nodal  # noqa: E402
 
 
 def nearest_output(run, when):
     files = sorted(glob.glob(f"{run}/fields/step_*.h5"))
-    times = [_field(h5py.File(fn), "volume_fraction")[0] for fn in files]
+    times = [field(h5py.File(fn), "volume_fraction")[0] for fn in files]
     return h5py.File(files[int(np.argmin(np.abs(np.array(times) - when)))])
 
 
@@ -38,16 +33,12 @@ def main(out, when, runs):
         label, run = spec.split("=", 1)
         f = nearest_output(run, when)
         xy, cells = f["Mesh/mesh/geometry"][:], f["Mesh/mesh/topology"][:]
-        t, c = _field(f, "volume_fraction")
-        _, u = _field(f, "velocity")
+        t, c = field(f, "volume_fraction")
+        _, u = field(f, "velocity")
         tri = Triangulation(xy[:, 0], xy[:, 1], cells[:, :3])
         speed = np.maximum(np.linalg.norm(u[:, :2], axis=1), 1e-3)
         c = c.ravel()
-        # c at the vertices (mean of the cells around) for the contour
-        cv = np.zeros(len(xy)); n = np.zeros(len(xy))
-        for k in range(3):
-            np.add.at(cv, cells[:, k], c); np.add.at(n, cells[:, k], 1)
-        cv /= np.maximum(n, 1)
+        cv = nodal(xy, cells[:, :3], c)   # c at the vertices, for the contour
         a = row[0].tripcolor(tri, facecolors=c, vmin=0, vmax=1, cmap="viridis")
         fig.colorbar(a, ax=row[0], label="c")
         b = row[1].tripcolor(tri, speed, shading="gouraud", norm=LogNorm(0.01, 10), cmap="magma")

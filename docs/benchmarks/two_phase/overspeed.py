@@ -21,12 +21,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 from matplotlib.tri import Triangulation  # noqa: E402
-
-
-def _field(f, name):
-    group = f["Function/" + name]
-    key = list(group.keys())[0]
-    return float(key.replace("_", ".")), group[key][:]
+from yield_weighting_heap import field  # noqa: E402
 
 
 def main(run, out, when=0.22):
@@ -35,11 +30,11 @@ def main(run, out, when=0.22):
     h0 = cfg["geometry"]["height"]
     bound = 2.0 * np.sqrt(g * h0)
     files = sorted(glob.glob(f"{run}/fields/step_*.h5"))
-    times = [_field(h5py.File(fn), "volume_fraction")[0] for fn in files]
+    times = [field(h5py.File(fn), "volume_fraction")[0] for fn in files]
     f = h5py.File(files[int(np.argmin(np.abs(np.array(times) - when)))])
     xy, cells = f["Mesh/mesh/geometry"][:], f["Mesh/mesh/topology"][:]
-    t, c = _field(f, "volume_fraction")
-    _, u = _field(f, "velocity")
+    t, c = field(f, "volume_fraction")
+    _, u = field(f, "velocity")
     tri = Triangulation(xy[:, 0], xy[:, 1], cells)
     speed = np.linalg.norm(u[:, :2], axis=1)
     rows = list(csv.DictReader(open(f"{run}/diagnostics.csv")))

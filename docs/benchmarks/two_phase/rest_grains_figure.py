@@ -16,7 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.tri import Triangulation
-from yield_weighting_heap import fraction   # the DG0 volume fraction of one output (h5py)
+from yield_weighting_heap import fraction, nodal   # the DG0 volume fraction of one output (h5py)
 
 
 def read(path):
@@ -27,11 +27,6 @@ def read(path):
 def nearest(run, t):
     fields = [read(p) for p in glob.glob(f"{run}/fields/step_*.h5")]
     return min(fields, key=lambda f: abs(f[3] - t))
-
-
-def nodal(x, cells, c):
-    counts = np.maximum(np.bincount(cells.ravel(), minlength=len(x)), 1)
-    return np.bincount(cells.ravel(), weights=np.repeat(c, 3), minlength=len(x)) / counts
 
 
 def main(out, items):

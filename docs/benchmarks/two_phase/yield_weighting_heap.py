@@ -19,13 +19,25 @@ import numpy as np
 from matplotlib.tri import Triangulation
 
 
+def field(f, name):
+    """(t, values) of the function ``name`` in an open output file ``f`` (one time each)."""
+    group = f["Function/" + name]
+    key = list(group.keys())[0]
+    return float(key.replace("_", ".")), group[key][:]
+
+
 def fraction(path):
     with h5py.File(path) as f:
         x = f["Mesh/mesh/geometry"][:]
         cells = f["Mesh/mesh/topology"][:]
-        group = f["Function/volume_fraction"]
-        key = list(group.keys())[0]
-        return x, cells, group[key][:, 0], float(key.replace("_", "."))
+        t, c = field(f, "volume_fraction")
+        return x, cells, c[:, 0], t
+
+
+def nodal(x, cells, c):
+    """The cell values c at the vertices: the mean over the cells around each vertex."""
+    counts = np.maximum(np.bincount(cells.ravel(), minlength=len(x)), 1)
+    return np.bincount(cells.ravel(), weights=np.repeat(c, 3), minlength=len(x)) / counts
 
 
 def main(out, runs):
@@ -38,9 +50,7 @@ def main(out, runs):
         x0, cells0, c0, _ = fraction(files[0])
         im = ax.tripcolor(Triangulation(x[:, 0], x[:, 1], cells), facecolors=np.clip(c, 0, 1),
                           cmap="viridis", vmin=0, vmax=1)
-        ax.tricontour(Triangulation(x0[:, 0], x0[:, 1], cells0),
-                      np.bincount(cells0.ravel(), weights=np.repeat(c0, 3), minlength=len(x0))
-                      / np.maximum(np.bincount(cells0.ravel(), minlength=len(x0)), 1),
+        ax.tricontour(Triangulation(x0[:, 0], x0[:, 1], cells0), nodal(x0, cells0, c0),
                       levels=[0.5], colors="w", linewidths=0.8)
         ax.set_xlim(0.1, 0.5)
         ax.set_ylim(0, 0.12)
