@@ -13,9 +13,11 @@ RUN_DT, RUN_DT2 (steps Δt and Δt/2): x_ref = 2 x(Δt/2) − x(Δt) (``--order 
 x(Δt/2) + (x(Δt/2) − x(Δt))/(2^p − 1)), its uncertainty |x(Δt/2) − x(Δt)| (dotted). Per run: max_t |x_f(t) − x_ref(t)| [m], the deposit front, steps, LU
 factorizations of the flow, rejected steps, CPU time (user + system) [s] and run.json's
 ``total`` [s]. The chart: error against CPU time and against factorizations (log-log) per
-family (``bdf1``/``bdf2`` fixed Δt, ``tol`` error-controlled), and error against Δt for the
-fixed-step families with the least-squares slope. ``--reference-run`` takes one run as the
-reference instead (a much finer one), ``--times`` other compare times (step times of every
+family (``bdf1``/``bdf2`` fixed Δt, ``tol`` error-controlled; ``newton:…`` and ``al:…`` for
+Newton and the augmented Lagrangian, by colour), and error against Δt for the fixed-step
+families with the least-squares slope. ``--reference-run`` takes one run as the
+reference instead (a much finer one; ``--reference-check`` a coarser run of its family, whose
+distance to it is the dotted uncertainty), ``--times`` other compare times (step times of every
 run, so that no interpolation error enters), ``--quantity`` another diagnostics column.
 """
 
@@ -57,14 +59,27 @@ def cpu_seconds(run: Path) -> float:
     return user + system
 
 
+def method(run: Path) -> str:
+    """The run's treatment of the yield stress: "picard", "newton" or "al" (augmented
+    Lagrangian), from its saved config."""
+    import yaml
+
+    numerics = yaml.safe_load((run / "config.yaml").read_text()).get("numerics", {})
+    if numerics.get("method") == "augmented_lagrangian":
+        return "al"
+    return "newton" if numerics.get("nonlinear_solver") == "newton" else "picard"
+
+
 def family(run: Path) -> tuple[str, float | None]:
-    """(family, Δt or tolerance) from the run's saved config."""
+    """(family, Δt or tolerance) from the run's saved config: ``bdf1``/``bdf2`` (fixed Δt) or
+    ``tol`` (error-controlled), prefixed ``newton:`` or ``al:`` for those methods."""
     import yaml
 
     cfg = yaml.safe_load((run / "config.yaml").read_text())["time"]
+    prefix = {"picard": ""}.get(method(run), method(run) + ":")
     if cfg.get("tolerance"):
-        return "tol", float(cfg["tolerance"])
-    return cfg.get("scheme", "bdf1"), float(cfg["dt"])
+        return prefix + "tol", float(cfg["tolerance"])
+    return prefix + cfg.get("scheme", "bdf1"), float(cfg["dt"])
 
 
 def measure(run: Path, reference: np.ndarray) -> dict:
@@ -97,36 +112,47 @@ def plot(rows: list[dict], png: Path, title: str, floor: float | None = None) ->
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    styles = {"bdf1": ("o-", "first order (BDF1), fixed Δt"),
-              "bdf2": ("s-", "second order (BDF2), fixed Δt"),
-              "tol": ("^-", "BDF2, error-controlled Δt")}
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
-    for kind, (mark, label) in styles.items():
-        sel = sorted((r for r in rows if r["family"] == kind), key=lambda r: r["value"])
-        if not sel:
-            continue
-        err = [r["error"] for r in sel]
-        line = axes[0].loglog([r["cpu"] for r in sel], err, mark, label=label)[0]
-        axes[1].loglog([r["factorizations"] for r in sel], err, mark, color=line.get_color(),
-                       label=label)
-        for r, e in zip(sel, err):
-            tag = f"{1e3 * r['value']:g} ms" if kind != "tol" else f"{r['value']:g}"
-            axes[0].annotate(tag, (r["cpu"], e), fontsize=7, xytext=(3, 3),
-                             textcoords="offset points")
-        if kind != "tol":
-            p = slope(rows, kind)
-            axes[2].loglog([1e3 * r["value"] for r in sel], err, mark, color=line.get_color(),
-                           label=label if p is None else f"{label}: slope {p:.2f}")
+    schemes = {"bdf1": ("o", "-", "BDF1, fixed Δt"), "bdf2": ("s", "--", "BDF2, fixed Δt"),
+               "tol": ("^", ":", "BDF2, error-controlled")}
+    methods = {"": ("C0", "Picard + Anderson"), "newton:": ("C3", "Newton"),
+               "al:": ("C2", "augmented Lagrangian")}
+    several = len({r["family"].split(":")[0] for r in rows if ":" in r["family"]}) > 0
+    fig, axes = plt.subplots(1, 3, figsize=(15, 5.6 if several else 4.6))
+    for prefix, (color, name) in methods.items():
+        for scheme, (marker, ls, label) in schemes.items():
+            kind = prefix + scheme
+            sel = sorted((r for r in rows if r["family"] == kind), key=lambda r: r["value"])
+            if not sel:
+                continue
+            label = f"{name}, {label}" if several else label
+            style = dict(marker=marker, ls=ls, color=color if several else None)
+            err = [r["error"] for r in sel]
+            line = axes[0].loglog([r["cpu"] for r in sel], err, label=label, **style)[0]
+            style["color"] = line.get_color()
+            axes[1].loglog([r["factorizations"] for r in sel], err, label=label, **style)
+            for r, e in zip(sel, err):
+                tag = f"{1e3 * r['value']:g} ms" if scheme != "tol" else f"{r['value']:g}"
+                axes[0].annotate(tag, (r["cpu"], e), fontsize=7, xytext=(3, 3),
+                                 textcoords="offset points")
+            if scheme != "tol":
+                p = slope(rows, kind)
+                axes[2].loglog([1e3 * r["value"] for r in sel], err,
+                               label=label if p is None else f"{label}: slope {p:.2f}", **style)
     if floor is not None:
         for ax in axes:
             ax.axhline(floor, color="grey", ls=":", lw=1)
     axes[0].set_xlabel("CPU time [s]")
-    axes[1].set_xlabel("LU factorizations of the flow")
+    axes[1].set_xlabel("factorizations of the flow matrix")
     axes[2].set_xlabel("Δt [ms]")
     for ax in axes:
         ax.set_ylabel(f"max_t |{QUANTITY}(t) − reference(t)|" + (" [m]" if QUANTITY == "front" else ""))
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+    if several:   # one legend for the three panels, below them
+        axes[1].legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3)
+        axes[2].legend(fontsize=7)
+    else:
+        for ax in axes:
+            ax.legend(fontsize=8)
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(png, dpi=110)
@@ -176,6 +202,9 @@ def main(argv=None) -> None:
     ap.add_argument("--order", type=float, default=1.0,
                     help="order p of the reference runs' scheme (Richardson: x + (x − x')/(2^p − 1))")
     ap.add_argument("--reference-run", type=Path, help="one run taken as the reference")
+    ap.add_argument("--reference-check", type=Path,
+                    help="with --reference-run: a coarser run of the same family; its largest "
+                         "distance to the reference is drawn as the reference's uncertainty")
     ap.add_argument("--times", nargs="+", type=float, help="compare times [s]")
     ap.add_argument("--quantity", nargs="+", default=["front"],
                     help="diagnostics column(s) (default front); several: only error against Δt, "
@@ -194,6 +223,10 @@ def main(argv=None) -> None:
     floor = None
     if args.reference_run is not None:
         reference = front_history(args.reference_run)
+        if args.reference_check is not None:
+            gap = np.abs(front_history(args.reference_check) - reference)
+            floor = float(np.max(gap))
+            print("uncert      " + " ".join(f"{g:8.2e}" for g in gap))
     else:
         coarse, fine = (front_history(r) for r in args.reference)
         reference = fine + (fine - coarse) / (2 ** args.order - 1)
@@ -207,11 +240,11 @@ def main(argv=None) -> None:
         writer.writeheader()
         writer.writerows(rows)
     for r in rows:
-        print(f"{r['run']:24s} {r['family']:5s} {r['value']:8.2e} error {r['error']:8.2e} "
+        print(f"{r['run']:24s} {r['family']:11s} {r['value']:8.2e} error {r['error']:8.2e} "
               f"(t={r['error_time']:.1f}) deposit {r['deposit_front']:.4f} m steps {r['steps']:5d} "
               f"LU {r['factorizations']:5d} rejected {r['rejected']:3d} CPU {r['cpu']:6.1f} s "
               f"total {r['total']:6.1f} s {r['status']}")
-    for kind in ("bdf1", "bdf2"):
+    for kind in sorted({r["family"] for r in rows if not r["family"].endswith("tol")}):
         p = slope(rows, kind)
         if p is not None:
             print(f"slope of the error against Δt, {kind}: {p:.2f}")
