@@ -6,6 +6,7 @@
     python scripts/column_plots.py fraction OUT.png RUN_DIR...  # two_phase: c at the last output
     python scripts/column_plots.py laws OUT.png T NAME=SWEEP_DIR...  # several sweeps in one plot,
                                                               # mass fronts at t sqrt(g/H0) = T
+                                                              # (T = end: each run's last step)
 
 ``law`` also prints the fitted power laws ΔL/L0 = c a^n on a ≤ 3 and a ≥ 3 and
 H_f/L0 = c a^n on a ≥ 0.7, per bed condition and mesh size, from the cases at rest or at
@@ -18,6 +19,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -81,7 +83,7 @@ def experimental_laws(ax1, ax2) -> None:
 
 def at_scaled_time(sweep_dir: Path, row: dict, scaled_time: float) -> dict:
     """``row`` with front, thick_front and max_height at the first step of its run with
-    t √(g/H0) ≥ ``scaled_time`` (the last step if the run ended before)."""
+    t √(g/H0) ≥ ``scaled_time`` (the last step if the run ended before; inf: the last step)."""
     h0 = float(row[H0_KEY])
     with (sweep_dir / row["run_dir"] / "diagnostics.csv").open() as f:
         steps = list(csv.DictReader(f))
@@ -164,7 +166,9 @@ def laws_plot(out: Path, scaled_time: float, sweeps: list[tuple[str, Path]]) -> 
             t_scale = np.sqrt(9.81 / float(r[H0_KEY]))
             end = (f"at rest, T = {summ['t'] * t_scale:.1f}" if r["status"] == "at_rest"
                    else f"end time, T = {summ['t'] * t_scale:.1f}")
-            print(f"| {name} | {a[k]:g} | {run_json['config']['geometry']['mesh_size']} | {run[k]:.2f} | {thick[k]:.2f} "
+            cfg = run_json["config"]   # the fine cells of an adaptive box, else the mesh size
+            cell = cfg.get("model", {}).get("min_cell") or cfg["geometry"]["mesh_size"]
+            print(f"| {name} | {a[k]:g} | {cell} | {run[k]:.2f} | {thick[k]:.2f} "
                   f"| {hf[k]:.3f} | {end} | {(summ['front'] - l0) / l0:.2f} | {summ['max_height'] / l0:.3f} "
                   f"| {summ['area_drift']:.1e} | {float(r.get('wall_time') or 'nan'):.0f} |")
         line = ax1.loglog(a, run, marker + "-", label=name + " (mass front)")[0]
@@ -178,7 +182,8 @@ def laws_plot(out: Path, scaled_time: float, sweeps: list[tuple[str, Path]]) -> 
                                      ("ΔL/L0 thickness", thick, 3.0, True), ("H_f/L0", hf, 0.7, True)):
             print(f"{name}: {label} {fit_text(a, y, cut, above, padding=False)}")
     experimental_laws(ax1, ax2)
-    fig.suptitle(f"mass front and top height at t √(g/H0) = {scaled_time:g} "
+    when = "the end of each run" if np.isinf(scaled_time) else f"t √(g/H0) = {scaled_time:g}"
+    fig.suptitle(f"mass front and top height at {when} "
                  "(open: the run did not meet the rest rule by its end)")
     ax1.set_xlabel("a = H0/L0"), ax1.set_ylabel("ΔL/L0"), ax1.legend(fontsize=6)
     ax2.set_xlabel("a = H0/L0"), ax2.set_ylabel("H_f/L0"), ax2.legend(fontsize=7)
@@ -211,7 +216,7 @@ if __name__ == "__main__":
     if kind == "fraction":
         fraction_plot(Path(sys.argv[2]), [Path(a) for a in sys.argv[3:]])
     elif kind == "laws":
-        laws_plot(Path(sys.argv[2]), float(sys.argv[3]),
+        laws_plot(Path(sys.argv[2]), math.inf if sys.argv[3] == "end" else float(sys.argv[3]),
                   [(arg.split("=", 1)[0], Path(arg.split("=", 1)[1])) for arg in sys.argv[4:]])
     else:
         src, dst = Path(sys.argv[2]), Path(sys.argv[3])

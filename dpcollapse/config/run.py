@@ -40,8 +40,13 @@ class TimeConfig(_Section):
         "by the previous step's velocity) or bdf2 (variable-step BDF2, mesh moved by the "
         "velocity extrapolated to the step's middle; first order on a new mesh)")
     tolerance: Number | None = _f(
-        None, "m/s", "Error-controlled step (time.scheme bdf2): RMS over the velocity dofs of "
-        "the local error estimate per step; null: fixed steps (or time.adaptive)", gt=0)
+        None, "m/s", "Error-controlled step (time.scheme bdf2): the local error estimate per "
+        "step, in the norm time.error_norm over the velocity dofs; null: fixed steps (or "
+        "time.adaptive)", gt=0)
+    error_norm: Literal["rms", "max"] = _f(
+        "rms", "", "Norm of the local error estimate that time.tolerance bounds: rms (root mean "
+        "square over the velocity dofs) or max (largest dof: the toe's error is not diluted by "
+        "the bulk's)")
     end_time: Number = _f(2.0, "s", "Simulated time cap", gt=0)
     output_every: Count = _f(20, "", "Write XDMF output every N steps", ge=1)
     checkpoint_every: Count = _f(50, "", "Write a restart checkpoint every N steps", ge=1)
@@ -78,6 +83,9 @@ class TimeConfig(_Section):
                 raise ConfigError(
                     f"time.dt_max = {_fmt(self.dt_max)}: must be >= time.dt = {_fmt(self.dt)} "
                     f"(s) with time.tolerance set")
+        elif self.error_norm != "rms":
+            raise ConfigError(f"time.error_norm = {self.error_norm}: needs time.tolerance "
+                              "(the error-controlled step); set a tolerance or leave it rms")
         return self
 
 

@@ -290,6 +290,12 @@ def test_time_scheme_and_tolerance(tmp_path):
     assert "time.scheme" in _error(tmp_path, overrides=["time.scheme=bdf3"])
     assert "numerics.extrapolate" in _error(tmp_path, overrides=[
         "time.scheme=bdf2", "time.tolerance=1e-4", "time.dt_max=0.02", "numerics.extrapolate=true"])
+    # the norm of the estimate: rms (default) or max, only with a tolerance
+    cfg = load_config(None, ["time.scheme=bdf2", "time.tolerance=1e-3", "time.error_norm=max"])
+    assert cfg.time.error_norm == "max" and load_config(None).time.error_norm == "rms"
+    assert "time.error_norm" in _error(tmp_path, overrides=["time.error_norm=max"])
+    assert "time.error_norm" in _error(tmp_path, overrides=[
+        "time.scheme=bdf2", "time.tolerance=1e-3", "time.error_norm=l2"])
 
 
 def test_material_is_a_union_on_the_law(caplog):

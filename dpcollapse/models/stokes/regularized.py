@@ -55,6 +55,7 @@ class PicardSettings:
     time_scheme: str = "bdf1"  # time.scheme: bdf1 or bdf2 (solvers.bdf)
     fixed_iterations: int | None = None  # accept the step after this many iterates (None: converge)
     convection: str = "implicit"  # implicit (lhs) or lagged (rhs at the iterate: symmetric lhs, LDLᵀ)
+    error_norm: str = "rms"  # time.error_norm: rms or max of the BDF2 local error estimate
 
 
 def picard_settings(cfg) -> PicardSettings:
@@ -65,7 +66,7 @@ def picard_settings(cfg) -> PicardSettings:
                           n.max_iterations, n.linear_solver, n.anderson_depth,
                           n.reuse_factorization, n.quadrature_degree, n.extrapolate,
                           n.krylov_rtol, n.krylov_max_iterations, cfg.time.scheme,
-                          n.fixed_iterations, n.convection)
+                          n.fixed_iterations, n.convection, cfg.time.error_norm)
 
 
 class RegularizedFlow(StokesState):
@@ -89,6 +90,7 @@ class RegularizedFlow(StokesState):
         self._pending_history = None
         if settings.time_scheme == "bdf2":
             self._use_bdf2()
+            self.error_norm = settings.error_norm
         self._build_forms()
         self.solver = self._make_solver()
         weights = np.zeros(self._size_local)

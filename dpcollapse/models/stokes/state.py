@@ -127,6 +127,8 @@ class StokesState:
     # ------------------------------------------------------------------ time scheme
     #: ``time.scheme``: bdf1 (the forms use uⁿ and the motion's w) or bdf2 (``solvers.bdf``)
     scheme = "bdf1"
+    #: ``time.error_norm``: the norm of the local error estimate over the velocity dofs
+    error_norm = "rms"
 
     def _use_bdf2(self) -> None:
         """Second-order time scheme: the history (``models.stokes.history``), the effective
@@ -175,8 +177,9 @@ class StokesState:
             self.mesh_velocity.x.array[:] = w.ravel()
 
     def local_error(self) -> float | None:
-        """RMS over the velocity dofs of the estimated local error of the last solved step
-        (BDF2 with two past steps) [m/s]; None otherwise."""
+        """The estimated local error of the last solved step (BDF2 with two past steps) [m/s]
+        in ``error_norm`` over the velocity dofs: rms, √(Σ eᵢ²/N), or max, maxᵢ |eᵢ|; None
+        otherwise."""
         if self.scheme != "bdf2" or self._step_dt is None:
             return None
         new = self.solution.x.array[self.velocity_dofs]
@@ -184,6 +187,9 @@ class StokesState:
         if error is None:
             return None
         owned = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
+        if self.error_norm == "max":
+            local = float(np.max(np.abs(error[:owned]))) if owned else 0.0
+            return self.comm.allreduce(local, op=MPI.MAX)
         return self.rms(error[:owned])
 
     # ------------------------------------------------------------------ conditions
