@@ -14,7 +14,8 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from dpcollapse.config import GEOMETRIES, from_saved
+from dpcollapse.config import GEOMETRIES, config_to_dict, from_saved, validate_config
+from dpcollapse.errors import ConfigError
 from dpcollapse.sweep.naming import yaml_value
 from dpcollapse.sweep.spec import Case, Sweep
 
@@ -88,6 +89,19 @@ class CaseState:
     extendable: bool = False   #: stale only in what may change on resume (e.g. end time)
 
 
+def saved_config(run: dict | None):
+    """The config a run directory's run.json says it ran with, as this program reads it: a
+    key added since (absent from the file) at its default, which by the project's rule
+    reproduces the older program — so a finished run of an unchanged case stays done when
+    the code gains a key. A config this program cannot validate (a key since removed) is
+    compared as written."""
+    saved = from_saved((run or {}).get("config"))
+    try:
+        return config_to_dict(validate_config(saved))
+    except ConfigError:
+        return saved
+
+
 def case_state(out: Path, case: Case) -> CaseState:
     d = run_dir(out, case)
     run = read_json(d / "run.json")
@@ -101,7 +115,7 @@ def case_state(out: Path, case: Case) -> CaseState:
         state = "failed" if code not in (None, 0, 130) else "pending"
         return CaseState(state, "", code, None, record, resumable)
     status = str(run.get("status", ""))
-    if from_saved(run.get("config")) != case.config:
+    if saved_config(run) != case.config:
         return CaseState("stale", status, code, run, record, resumable,
                          resumable and status != "failed" and _extendable(run, case.config))
     if running:
@@ -120,7 +134,7 @@ def _extendable(run: dict, config: dict) -> bool:
     --resume`` accepts changed, and the run has not gone past the new end time."""
     from dpcollapse.io.rundir import RESUMABLE_KEYS, changed_keys
 
-    old = from_saved(run.get("config"))
+    old = saved_config(run)
     if not isinstance(old, dict):
         return False
     t = (run.get("summary") or {}).get("t", 0.0)

@@ -422,3 +422,24 @@ def test_column_runout_example_is_valid():
     heights = sorted({c.config["geometry"]["height"] for c in sw.cases})
     assert heights == [0.05, 0.08, 0.142, 0.2, 0.3, 0.45, 0.626, 1.0]
     assert len(sw.cases) == 32
+
+
+def test_a_key_added_since_the_run_keeps_the_case_done(local_sweep, tmp_path):
+    """A finished run written before the program gained a config key (absent from its
+    run.json, here ``time.error_norm``) ran with that key's default: the case stays done; the
+    same key at a value other than its default would make it stale."""
+    path, out, _ = local_sweep
+    copy = tmp_path / "out"
+    shutil.copytree(out, copy)
+    run_json = copy / "runs" / "friction_angle=30" / "run.json"
+    run = json.loads(run_json.read_text())
+    assert run["config"]["time"].pop("error_norm") == "rms"
+    run_json.write_text(json.dumps(run))
+    proc = _run(PY + ["sweep", path, "--out", copy, "--dry-run"])
+    assert proc.returncode == 0, proc.stderr
+    assert "friction_angle=30: done" in proc.stdout, proc.stdout
+    for change in ({"error_norm": "max"}, {"a_key_since_removed": 1}):   # the latter: compared as written
+        run["config"]["time"] = {**run["config"]["time"], **change}
+        run_json.write_text(json.dumps(run))
+        proc = _run(PY + ["sweep", path, "--out", copy, "--dry-run"])
+        assert "friction_angle=30: stale" in proc.stdout, proc.stdout
