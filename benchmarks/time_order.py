@@ -59,12 +59,10 @@ def cpu_seconds(run: Path) -> float:
     return user + system
 
 
-def method(run: Path) -> str:
+def method(config: dict) -> str:
     """The run's treatment of the yield stress: "picard", "newton" or "al" (augmented
-    Lagrangian), from its saved config."""
-    import yaml
-
-    numerics = yaml.safe_load((run / "config.yaml").read_text()).get("numerics", {})
+    Lagrangian), from its saved config (the parsed config.yaml)."""
+    numerics = config.get("numerics", {})
     if numerics.get("method") == "augmented_lagrangian":
         return "al"
     return "newton" if numerics.get("nonlinear_solver") == "newton" else "picard"
@@ -75,8 +73,9 @@ def family(run: Path) -> tuple[str, float | None]:
     ``tol`` (error-controlled), prefixed ``newton:`` or ``al:`` for those methods."""
     import yaml
 
-    cfg = yaml.safe_load((run / "config.yaml").read_text())["time"]
-    prefix = {"picard": ""}.get(method(run), method(run) + ":")
+    config = yaml.safe_load((run / "config.yaml").read_text())
+    cfg, name = config["time"], method(config)
+    prefix = "" if name == "picard" else name + ":"
     if cfg.get("tolerance"):
         norm = "max" if cfg.get("error_norm") == "max" else ""
         return prefix + "tol" + norm, float(cfg["tolerance"])
@@ -118,7 +117,7 @@ def plot(rows: list[dict], png: Path, title: str, floor: float | None = None) ->
                "tolmax": ("v", "-.", "BDF2, error-controlled, max norm")}
     methods = {"": ("C0", "Picard + Anderson"), "newton:": ("C3", "Newton"),
                "al:": ("C2", "augmented Lagrangian")}
-    several = len({r["family"].split(":")[0] for r in rows if ":" in r["family"]}) > 0
+    several = any(":" in r["family"] for r in rows)   # Newton or AL runs: colour by method
     fig, axes = plt.subplots(1, 3, figsize=(15, 5.6 if several else 4.6))
     for prefix, (color, name) in methods.items():
         for scheme, (marker, ls, label) in schemes.items():

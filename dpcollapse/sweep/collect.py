@@ -115,9 +115,10 @@ def case_state(out: Path, case: Case) -> CaseState:
         state = "failed" if code not in (None, 0, 130) else "pending"
         return CaseState(state, "", code, None, record, resumable)
     status = str(run.get("status", ""))
-    if saved_config(run) != case.config:
+    saved = saved_config(run)
+    if saved != case.config:
         return CaseState("stale", status, code, run, record, resumable,
-                         resumable and status != "failed" and _extendable(run, case.config))
+                         resumable and status != "failed" and _extendable(run, saved, case.config))
     if running:
         return CaseState("running", status, code, run, record, resumable)
     if status in DONE:
@@ -129,12 +130,12 @@ def case_state(out: Path, case: Case) -> CaseState:
     return CaseState(state, status, code, run, record, resumable)
 
 
-def _extendable(run: dict, config: dict) -> bool:
-    """True when the run's config differs from ``config`` only in keys that ``dpcollapse run
-    --resume`` accepts changed, and the run has not gone past the new end time."""
+def _extendable(run: dict, old, config: dict) -> bool:
+    """True when the run's config ``old`` (``saved_config(run)``) differs from ``config`` only
+    in keys that ``dpcollapse run --resume`` accepts changed, and the run has not gone past the
+    new end time."""
     from dpcollapse.io.rundir import RESUMABLE_KEYS, changed_keys
 
-    old = saved_config(run)
     if not isinstance(old, dict):
         return False
     t = (run.get("summary") or {}).get("t", 0.0)
