@@ -72,8 +72,8 @@ class NumericsConfig(_Section):
         1.0e-3, "", "Fixed-point stop: ||du|| <= rtol*||u|| + atol (relative part)", gt=0, lt=1
     )
     nonlinear_atol: Number | None = _f(
-        None, "m/s", "Fixed-point stop, absolute part (null: 0.3*time.tolerance with the "
-        "error-controlled step, 1e-7 with a fixed step)", ge=0)
+        None, "m/s", "Fixed-point stop, absolute part (null: min(0.3*time.tolerance, "
+        "0.03*time.rest_speed) with the error-controlled step, 1e-7 with a fixed step)", ge=0)
     max_iterations: Count = _f(100, "", "Most fixed-point iterations per time step", ge=1)
     nonlinear_solver: Literal["picard", "newton"] = _f(
         "picard", "", "Regularized method: Picard fixed point (secant viscosity, Anderson) or "

@@ -23,6 +23,11 @@ from dpcollapse.config.run import InitialConfig, OutputConfig, TimeConfig
 #: error-controlled step's time.tolerance (measured on configs/rigid.yaml, 0.1 … 1 all meet
 #: its accuracy rule, 0.3 is the fastest: docs/benchmarks/2026-12-04-nonlinear-atol.md) …
 ATOL_FRACTION = 0.3
+#: … but never above this fraction of time.rest_speed: an iterate accepted with an error near
+#: the rest speed can hold a toe film just above it (measured: max norm at 3e-4, atol 9e-5
+#: m/s, the 0.11 wheel's OpenBLAS: 4 of 5 kernels crept to 1.37–2 s; 3e-5 m/s: at rest at
+#: 0.94 s, docs/benchmarks/2026-12-04-rigid-max-norm.md) …
+REST_FRACTION = 0.03
 #: … and with a fixed step, 1e-7 m/s.
 FIXED_STEP_ATOL = 1.0e-7
 
@@ -42,14 +47,15 @@ class Config(_Section):
     @property
     def fixed_point_atol(self) -> float:
         """The absolute part of the fixed point's stop ‖δu‖ ≤ rtol ‖u‖ + atol [m/s]:
-        ``numerics.nonlinear_atol``, or, when it is null, ATOL_FRACTION × ``time.tolerance``
-        with the error-controlled step (the nonlinear solve is asked for a fraction of the
-        error the step itself may make, as implicit integrators with error control do —
-        SUNDIALS/CVODE: 0.1) and FIXED_STEP_ATOL with a fixed step."""
+        ``numerics.nonlinear_atol``, or, when it is null, min(ATOL_FRACTION × ``time.tolerance``,
+        REST_FRACTION × ``time.rest_speed``) with the error-controlled step (the nonlinear solve
+        is asked for a fraction of the error the step itself may make, as implicit integrators
+        with error control do — SUNDIALS/CVODE: 0.1 —, and for velocities well below the rest
+        rule's) and FIXED_STEP_ATOL with a fixed step."""
         if self.numerics.nonlinear_atol is not None:
             return self.numerics.nonlinear_atol
         if self.time.tolerance is not None:
-            return ATOL_FRACTION * self.time.tolerance
+            return min(ATOL_FRACTION * self.time.tolerance, REST_FRACTION * self.time.rest_speed)
         return FIXED_STEP_ATOL
 
     @model_validator(mode="after")

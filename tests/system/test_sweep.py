@@ -426,19 +426,20 @@ def test_column_runout_example_is_valid():
 
 def test_a_key_added_since_the_run_keeps_the_case_done(local_sweep, tmp_path):
     """A finished run written before the program gained a config key (absent from its
-    run.json, here ``time.error_norm``) ran with that key's default: the case stays done; the
-    same key at a value other than its default would make it stale."""
+    run.json; here ``time.rest_energy_fraction`` stands in for it, a key the sweep's config
+    leaves at its default) ran with that key's default: the case stays done; the same key at
+    a value other than its default would make it stale."""
     path, out, _ = local_sweep
     copy = tmp_path / "out"
     shutil.copytree(out, copy)
     run_json = copy / "runs" / "friction_angle=30" / "run.json"
     run = json.loads(run_json.read_text())
-    assert run["config"]["time"].pop("error_norm") == "rms"
+    assert run["config"]["time"].pop("rest_energy_fraction") == 0.0
     run_json.write_text(json.dumps(run))
     proc = _run(PY + ["sweep", path, "--out", copy, "--dry-run"])
     assert proc.returncode == 0, proc.stderr
     assert "friction_angle=30: done" in proc.stdout, proc.stdout
-    for change in ({"error_norm": "max"}, {"a_key_since_removed": 1}):   # the latter: compared as written
+    for change in ({"rest_energy_fraction": 0.1}, {"a_key_since_removed": 1}):   # the latter: compared as written
         run["config"]["time"] = {**run["config"]["time"], **change}
         run_json.write_text(json.dumps(run))
         proc = _run(PY + ["sweep", path, "--out", copy, "--dry-run"])

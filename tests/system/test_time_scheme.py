@@ -47,11 +47,13 @@ def test_bdf2_is_second_order_and_bdf1_first(tmp_path):
 
 def test_error_controlled_step(tmp_path):
     """time.tolerance: the step grows from time.dt within [dt_min, dt_max], rejections are
-    counted in run.json, and a looser tolerance takes fewer steps."""
+    counted in run.json, and a looser tolerance takes fewer steps (the RMS norm; rigid.yaml's
+    max: test_max_error_norm)."""
     steps = {}
     for tol in (1e-3, 1e-4):
         over = ["geometry.mesh_size=0.03", "time.end_time=0.15", "time.scheme=bdf2",
-                f"time.tolerance={tol}", "time.dt_max=0.012", "time.output_every=1000"]
+                f"time.tolerance={tol}", "time.dt_max=0.012", "time.output_every=1000",
+                "time.error_norm=rms"]
         run_dir = tmp_path / f"tol{tol:g}"
         summary = simulation("rigid.yaml", over, run_dir).run()
         d = read_diagnostics(run_dir / "diagnostics.csv")

@@ -77,9 +77,11 @@ def test_rigid_yaml():
     assert cfg.gravity_vector == pytest.approx((0.0, -9.81))
     # the file spells out the defaults, but for its error-controlled BDF2 step and the
     # lagged convection (LDLᵀ)
-    assert (cfg.time.scheme, cfg.time.tolerance, cfg.time.dt_max) == ("bdf2", 1e-4, 0.02)
+    assert (cfg.time.scheme, cfg.time.tolerance, cfg.time.dt_max) == ("bdf2", 3e-4, 0.02)
+    assert cfg.time.error_norm == "max"
     assert cfg.numerics.convection == "lagged"
-    assert load_config(RIGID, RIGID_BDF1 + ["numerics.convection=implicit"]) == load_config(None)
+    assert load_config(RIGID, RIGID_BDF1 + ["numerics.convection=implicit",
+                                            "time.error_norm=rms"]) == load_config(None)
 
 
 def test_stable_yaml():
@@ -101,9 +103,12 @@ def test_the_fixed_point_stop_follows_the_step_error_tolerance():
     from dpcollapse.models.stokes.regularized import picard_settings
 
     rigid = load_config(RIGID)
-    assert rigid.numerics.nonlinear_atol is None and rigid.time.tolerance == 1e-4
+    assert rigid.numerics.nonlinear_atol is None and rigid.time.tolerance == 3e-4
+    # min(0.3 × 3e-4, 0.03 × rest_speed 1e-3): the rest rule's bound
     assert math.isclose(rigid.fixed_point_atol, 3e-5, rel_tol=1e-12)
     assert math.isclose(picard_settings(rigid).atol, 3e-5, rel_tol=1e-12)
+    tight = load_config(RIGID, ["time.tolerance=5e-5"])
+    assert math.isclose(tight.fixed_point_atol, 1.5e-5, rel_tol=1e-12)
     fixed = load_config(RIGID, RIGID_BDF1)
     assert fixed.fixed_point_atol == 1e-7
     al = load_config(RIGID, RIGID_BDF1 + ["numerics.method=augmented_lagrangian"])
@@ -290,10 +295,11 @@ def test_time_scheme_and_tolerance(tmp_path):
     assert "time.scheme" in _error(tmp_path, overrides=["time.scheme=bdf3"])
     assert "numerics.extrapolate" in _error(tmp_path, overrides=[
         "time.scheme=bdf2", "time.tolerance=1e-4", "time.dt_max=0.02", "numerics.extrapolate=true"])
-    # the norm of the estimate: rms (default) or max, only with a tolerance
+    # the norm of the estimate: rms (default) or max; inert with fixed steps, so that
+    # rigid.yaml (max) runs the fixed-step methods with time.tolerance=null alone
     cfg = load_config(None, ["time.scheme=bdf2", "time.tolerance=1e-3", "time.error_norm=max"])
     assert cfg.time.error_norm == "max" and load_config(None).time.error_norm == "rms"
-    assert "time.error_norm" in _error(tmp_path, overrides=["time.error_norm=max"])
+    assert load_config(None, ["time.error_norm=max"]).time.tolerance is None
     assert "time.error_norm" in _error(tmp_path, overrides=[
         "time.scheme=bdf2", "time.tolerance=1e-3", "time.error_norm=l2"])
 
