@@ -122,6 +122,12 @@ class TwoPhaseModel(_Section):
         "a heap below the friction angle, deposits come to rest); volume w = c (the default "
         "before: reproduces earlier runs); sharp w = H(c - 1/2); saturated w = min(1, 2c) "
         "(issue 27: docs/benchmarks/2026-12-04-two-phase-yield-weighting.md)")
+    grain_pressure: Literal["effective", "total"] = _f(
+        "effective", "", "Pressure in the grains' yield stress kappa(p), in mu(I)'s I and in the bed "
+        "friction: effective p - p_a, p_a = rho_a g (depth below the domain's highest point), the "
+        "light fluid's hydrostatic pressure that grain contacts do not carry (the default since "
+        "2026-12-04); total p (before: the light fluid's weight above acted as a cohesion, "
+        "+2.6-3.0 % deposit height at air_density 15; docs/benchmarks/2026-12-04-grain-pressure.md)")
     courant: Number = _f(
         0.4, "", "Courant number of the sub-cycled explicit advection of c (outflow of a cell per "
         "sub-step over its content)", gt=0, le=0.5)

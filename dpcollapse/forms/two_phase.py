@@ -184,14 +184,39 @@ def outflow_volume_rate(c, u, n, ds_out):
     return _positive(ufl.dot(u, n)) * c * ds_out
 
 
+def ambient_pressure(density, body_force, reference, mesh):
+    """p_a = ρ_a f·(x − x_ref) [Pa]: the hydrostatic pressure of the light fluid at rest, zero
+    at the point x_ref (f the body force per unit mass, pointing down)."""
+    x = ufl.SpatialCoordinate(mesh)
+    return density * ufl.dot(body_force, x - ufl.as_vector(reference))
+
+
 def ambient_traction(density, body_force, reference, v, n, ds_out, mesh):
     """−∫_out p_a (v·n) ds with p_a = ρ_a f·(x − x_ref): the traction σ n = −p_a n of the
     light fluid at rest outside an outflow side, zero at the open top's point x_ref (the light
     fluid standing in the vessel is then in equilibrium; the material leaves at p = p_a)."""
-    x = ufl.SpatialCoordinate(mesh)
-    ref = ufl.as_vector(reference)
-    pressure = density * ufl.dot(body_force, x - ref)
-    return -pressure * ufl.dot(v, n) * ds_out
+    return -ambient_pressure(density, body_force, reference, mesh) * ufl.dot(v, n) * ds_out
+
+
+#: the pressures the grains' friction may see (``model.grain_pressure``)
+GRAIN_PRESSURES = ("effective", "total")
+
+
+def grain_pressure(p, density, body_force, reference, mesh, kind: str = "effective"):
+    """The pressure the grains' friction sees (``model.grain_pressure``) [Pa]::
+
+        effective   p − p_a,  p_a = ρ_a f·(x − x_ref)     (Terzaghi: the contact pressure)
+        total       p
+
+    p is the mixture's total pressure, zero at the open top. Below a column of light fluid
+    of height h_a it holds the light fluid's weight ρ_a g h_a as well, which is not carried by
+    grain contacts: counted in κ(p) = √2 μ [p]_+ it is a cohesion that grows with the box's
+    height and with ρ_a (measured: +2.6–3.0 % deposit height at ρ_a = 15 kg/m³). x_ref is the
+    domain's highest point (``highest_point``)."""
+    kind = _one_of(kind, GRAIN_PRESSURES, "grain pressure")
+    if kind == "total":
+        return p
+    return p - ambient_pressure(density, body_force, reference, mesh)
 
 
 def compression_flux(c, u, v, n, dS, coefficient):

@@ -102,6 +102,22 @@ def test_the_a142_deposit_comes_to_rest(tmp_path):
     assert summary["fraction_max"] < 1.01
 
 
+
+def test_the_deposit_does_not_feel_the_light_fluid_s_density(tmp_path):
+    """model.grain_pressure effective (the default): the grains' friction sees p − ρ_a g
+    (depth below the open top), so the a = 1.42 deposit (2 cm, t = 0.8 s) has the same height
+    at ρ_a = 1.55 and 15 kg/m³ (measured: 0.08079 / 0.08083 m, +0.05 %); with the total pressure
+    the light fluid's weight is a cohesion and ρ_a = 15 raises it by 2.3 % (0.08265 m)."""
+    height = {}
+    for rho, kind in [(1.55, "effective"), (15.0, "effective"), (15.0, "total")]:
+        over = CREEP + ["time.end_time=0.8", f"model.air_density={rho}",
+                        f"model.grain_pressure={kind}"]
+        summary = simulation(CONFIG, over, tmp_path / f"{kind}_{rho}", comm=MPI.COMM_SELF).run()
+        height[rho, kind] = summary["max_height"]
+    light = height[1.55, "effective"]
+    assert abs(height[15.0, "effective"] - light) < 0.005 * light
+    assert height[15.0, "total"] - height[15.0, "effective"] > 0.015 * light
+
 #: issue 27's static heap (docs/benchmarks/2026-12-04-two-phase-static-heap.md): rigid.yaml's
 #: material as a 0.1 m heap whose flank rises at 20° (μ_s at 25.5°), under the light fluid,
 #: 2 cm cells; the rest rule off

@@ -91,7 +91,8 @@ def make_flow(tagged: TaggedMesh, cfg, vessel: Container) -> TwoPhaseFlow:
                             bed_angle=math.radians(cfg.geometry.bed_angle),
                             rheology=law_from_material(cfg.material), boundaries=vessel.boundaries)
     light = LightFluid(model.air_density, model.air_viscosity, model.courant, model.compression,
-                       model.grad_div, model.viscosity_average, model.yield_weighting)
+                       model.grad_div, model.viscosity_average, model.yield_weighting,
+                       model.grain_pressure)
     return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
 
 

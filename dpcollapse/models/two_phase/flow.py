@@ -27,6 +27,7 @@ from dpcollapse.forms.two_phase import (
     MixtureRheology,
     ambient_traction,
     grad_div,
+    grain_pressure,
     mixture,
     skew_convection,
 )
@@ -48,6 +49,7 @@ class LightFluid:
     grad_div: float = 0.0  # γ of the grad-div term γ S (∇·u)(∇·v)
     viscosity_average: str = "arithmetic"  # of S_g and 2η_a (forms.two_phase)
     yield_weighting: str = "grains"  # κ_mix = w(c) κ(p) (forms.two_phase.yield_weight)
+    grain_pressure: str = "effective"  # the p of κ(p), μ(I) and the bed friction (forms.two_phase)
 
 
 class TwoPhaseFlow(RegularizedFlow):
@@ -68,6 +70,15 @@ class TwoPhaseFlow(RegularizedFlow):
         outflow = self._tags_of(BoundaryKind.OUTFLOW)
         if outflow:
             self.fraction.watch_outflow(self._over(outflow))
+
+    def highest_point(self, body_force) -> tuple[float, float]:
+        """x_ref: the mesh vertex highest against the body force f (least f·x), over all
+        ranks; on a box with an open top, a point of the top (p = 0 there)."""
+        x = self.mesh.geometry.x[:, :2]
+        height = x @ np.asarray(body_force, dtype=float)
+        local = (float(height.min()), tuple(float(v) for v in x[int(height.argmin())])) \
+            if len(height) else (np.inf, (0.0, 0.0))
+        return min(self.comm.allgather(local))[1]
 
     def _tags_of(self, *kinds) -> list[int]:
         """The facet tags of the scene's sides of these kinds present on this mesh."""
@@ -93,9 +104,14 @@ class TwoPhaseFlow(RegularizedFlow):
         c = self.fraction.c
         clamped = ufl.min_value(ufl.max_value(c, 0.0), 1.0)
         (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
-        u_k, p_k = ufl.split(self.iterate)
+        u_k, p_total = ufl.split(self.iterate)
         self._rho = rho = mixture(clamped, p.density, light.density)
         f, eps, eps_f, dx, ds, n = self._coefficients()
+        # the grains' friction sees p − p_a (model.grain_pressure: effective), p_a the light
+        # fluid's hydrostatic pressure, zero at the domain's highest point
+        self.highest = self.highest_point(self.params.body_force)
+        self.grain_pressure = p_k = grain_pressure(p_total, light.density, f, self.highest, mesh,
+                                                   light.grain_pressure)
         self.law = law = MixtureRheology(p.rheology, clamped, light.viscosity,
                                          light.viscosity_average, light.yield_weighting)
         walls = [(f"{b.name}_friction", b.friction, b.tag) for b in p.boundaries if b.has_friction]
@@ -126,8 +142,8 @@ class TwoPhaseFlow(RegularizedFlow):
         box at t = 0.02 s (FGMRES to 1e-8): 39 (1 cm) and 46 (5 mm) iterations; with the
         grad-div term's γS added, (½ + γ) S, 42 and 54; with the granular law alone (the air
         as stiff as the grains) 185 and no convergence in 500."""
-        u_k, p_k = ufl.split(self.iterate)
-        return 0.5 * self.law.secant_viscosity(u_k, p_k, self.epsilon)
+        u_k = ufl.split(self.iterate)[0]
+        return 0.5 * self.law.secant_viscosity(u_k, self.grain_pressure, self.epsilon)
 
     # ------------------------------------------------------------------ the step
     def solve_step(self, dt: float):
