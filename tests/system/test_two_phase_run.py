@@ -104,7 +104,7 @@ def test_the_a142_deposit_comes_to_rest(tmp_path):
 
 
 def test_the_deposit_does_not_feel_the_light_fluid_s_density(tmp_path):
-    """model.grain_pressure effective (the default): the grains' friction sees p − ρ_a g
+    """model.grain_pressure effective (not the default): the grains' friction sees p − ρ_a g
     (depth below the open top), so the a = 1.42 deposit (2 cm, t = 0.8 s) has the same height
     at ρ_a = 1.55 and 15 kg/m³ (measured: 0.08079 / 0.08083 m, +0.05 %); with the total pressure
     the light fluid's weight is a cohesion and ρ_a = 15 raises it by 2.3 % (0.08265 m)."""

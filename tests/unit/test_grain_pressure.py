@@ -1,6 +1,6 @@
-"""model.grain_pressure (issue 27, docs/benchmarks/2026-12-04-grain-pressure.md): the grains'
-friction sees p − p_a, p_a = ρ_a f·(x − x_ref) the light fluid's hydrostatic pressure, zero at
-the domain's highest point; ``total`` keeps p. Checked on a tiny mesh against hand values, on
+"""model.grain_pressure (issue 27, docs/benchmarks/2026-12-04-grain-pressure.md): with
+``effective`` the grains' friction sees p − p_a, p_a = ρ_a f·(x − x_ref) the light fluid's
+hydrostatic pressure, zero at the domain's highest point; ``total`` (the default) keeps p. Checked on a tiny mesh against hand values, on
 the two-phase model built from a config (x_ref on the open top, the yield stress of a light
 fluid at rest zero), and the key's default and refusal."""
 
@@ -51,7 +51,7 @@ def test_effective_pressure_by_hand(mesh):
     # a tilted body force: p_a follows f·x, zero at x_ref
     g = (G * math.sin(0.3), -G * math.cos(0.3))
     tilted = _pressure(mesh, lambda x, y: RHO_A * (g[0] * (x - LENGTH) + g[1] * (y - HEIGHT)))
-    rest = grain_pressure(tilted, RHO_A, ufl.as_vector(g), (LENGTH, HEIGHT), mesh)
+    rest = grain_pressure(tilted, RHO_A, ufl.as_vector(g), (LENGTH, HEIGHT), mesh, "effective")
     assert _integral(rest ** 2, mesh) == pytest.approx(0.0, abs=1e-18)
     with pytest.raises(ValueError, match="effective, total"):
         grain_pressure(p, RHO_A, f, (0.0, HEIGHT), mesh, "contact")
@@ -79,8 +79,8 @@ def test_the_model_measures_from_its_open_top(kind, tmp_path):
         assert got == pytest.approx(exact, rel=1e-6)
 
 
-def test_the_key_defaults_to_effective(capsys):
-    assert load_config(CONFIG).model.grain_pressure == "effective"
-    assert load_config(CONFIG, ["model.grain_pressure=total"]).model.grain_pressure == "total"
+def test_the_key_defaults_to_total(capsys):
+    assert load_config(CONFIG).model.grain_pressure == "total"
+    assert load_config(CONFIG, ["model.grain_pressure=effective"]).model.grain_pressure == "effective"
     message = refusal_message(CONFIG, "model.grain_pressure=contact", "model.grain_pressure", capsys)
     assert all(name in message for name in GRAIN_PRESSURES)

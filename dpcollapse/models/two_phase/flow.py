@@ -49,7 +49,7 @@ class LightFluid:
     grad_div: float = 0.0  # γ of the grad-div term γ S (∇·u)(∇·v)
     viscosity_average: str = "arithmetic"  # of S_g and 2η_a (forms.two_phase)
     yield_weighting: str = "grains"  # κ_mix = w(c) κ(p) (forms.two_phase.yield_weight)
-    grain_pressure: str = "effective"  # the p of κ(p), μ(I) and the bed friction (forms.two_phase)
+    grain_pressure: str = "total"  # the p of κ(p), μ(I) and the bed friction (forms.two_phase)
 
 
 class TwoPhaseFlow(RegularizedFlow):
@@ -107,8 +107,8 @@ class TwoPhaseFlow(RegularizedFlow):
         u_k, p_total = ufl.split(self.iterate)
         self._rho = rho = mixture(clamped, p.density, light.density)
         f, eps, eps_f, dx, ds, n = self._coefficients()
-        # the grains' friction sees p − p_a (model.grain_pressure: effective), p_a the light
-        # fluid's hydrostatic pressure, zero at the domain's highest point
+        # the grains' friction sees p, or p − p_a (model.grain_pressure: effective), p_a the
+        # light fluid's hydrostatic pressure, zero at the domain's highest point
         self.highest = self.highest_point(self.params.body_force)
         self.grain_pressure = p_k = grain_pressure(p_total, light.density, f, self.highest, mesh,
                                                    light.grain_pressure)
