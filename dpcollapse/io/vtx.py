@@ -3,7 +3,10 @@
 DOLFINx's ``VTXWriter`` writes the functions given at construction, on their mesh, at
 every ``write(t)``; with the mesh policy "update" it rewrites the node coordinates each
 time, so it follows the moving (ALE) mesh. A remesh makes new functions on a new mesh, so
-the series is cut into *segments*, one ADIOS2 folder per mesh:
+the series is cut into *segments*, one ADIOS2 folder per mesh and set of functions (a new
+discretization on the same mesh — e.g. after nodes land on the bed — has new functions, which a
+writer bound to the old ones would never see: measured, it repeated the segment's first
+values):
 
     vtx/nodes_{k:03d}.bp   P1 fields (velocity, pressure, flowing, ...) on mesh k
     vtx/cells_{k:03d}.bp   DG0 fields (strain_rate, rigid, ...) on mesh k
@@ -42,6 +45,7 @@ class VTXTimeSeries:
         comm.barrier()
         self.segments: list[dict] = self._read_index()
         self._segment_mesh = None
+        self._segment_functions: list = []
         self._writers: list = []
 
     # ------------------------------------------------------------------ index
@@ -73,10 +77,14 @@ class VTXTimeSeries:
                 files[kind] = name
         self.segments.append({"files": files, "times": []})
         self._segment_mesh = mesh
+        self._segment_functions = list(functions)
 
     def write(self, t: float, mesh, functions: Sequence) -> None:
-        """Write the functions at time t (collective); a new mesh starts a new segment."""
-        if mesh is not self._segment_mesh:
+        """Write the functions at time t (collective); a new mesh, or new function objects
+        (a writer holds the ones it was made with), start a new segment."""
+        same = (mesh is self._segment_mesh and len(functions) == len(self._segment_functions)
+                and all(f is g for f, g in zip(functions, self._segment_functions)))
+        if not same:
             self._open(mesh, functions)
         for writer in self._writers:
             writer.write(float(t))
@@ -104,3 +112,4 @@ class VTXTimeSeries:
             writer.close()
         self._writers = []
         self._segment_mesh = None
+        self._segment_functions = []

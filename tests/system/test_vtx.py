@@ -40,7 +40,9 @@ def test_vtx_series_follows_the_moving_mesh_through_a_remesh(tmp_path):
     summary = Simulation(cfg, tmp_path, quiet=True).run()
     assert summary["remeshes"] >= 1
     segments = json.loads((tmp_path / "vtx" / "segments.json").read_text())
-    assert len(segments) == summary["remeshes"] + 1
+    # one segment per mesh and per set of output functions (a landing makes new ones on the
+    # same mesh: here at t = 0.12 s after the remesh at 0.096 s)
+    assert len(segments) >= summary["remeshes"] + 1
     times = [t for s in segments for t in s["times"]]
     d = read_diagnostics(tmp_path / "diagnostics.csv")
     assert times[0] == 0.0 and times[-1] == pytest.approx(d["t"][-1])
@@ -59,4 +61,9 @@ def test_vtx_series_follows_the_moving_mesh_through_a_remesh(tmp_path):
     assert first_nodes["first"]["bounds"] != first_nodes["last"]["bounds"] or len(first_nodes["times"]) == 1
     last_nodes = vtx[-2]
     assert last_nodes["last"]["num_cells"] == xdmf["last"]["num_cells"]
-    assert np.allclose(last_nodes["last"]["ranges"]["pressure"], xdmf["last"]["ranges"]["pressure"], rtol=1e-9)
+    # the values at every output time are the XDMF's (a writer bound to functions that the
+    # run had replaced repeated its segment's first values)
+    snapshots = [snap for pv in vtx[::2] for snap in pv["snapshots"]]
+    assert len(snapshots) == len(xdmf["snapshots"])
+    for got, want in zip(snapshots, xdmf["snapshots"]):
+        assert np.allclose(got["ranges"]["pressure"], want["ranges"]["pressure"], rtol=1e-9)
