@@ -35,7 +35,8 @@ SEGMENTS = "segments.json"
 
 
 class VTXTimeSeries:
-    """Time series of P1 and DG0 functions in ADIOS2 VTX format, one segment per mesh."""
+    """Time series of P1 and DG0 functions in ADIOS2 VTX format, one segment per set of
+    functions (so per mesh)."""
 
     def __init__(self, directory: str | Path, comm: MPI.Comm):
         self.comm = comm
@@ -44,7 +45,6 @@ class VTXTimeSeries:
             self.directory.mkdir(parents=True, exist_ok=True)
         comm.barrier()
         self.segments: list[dict] = self._read_index()
-        self._segment_mesh = None
         self._segment_functions: list = []
         self._writers: list = []
 
@@ -63,7 +63,7 @@ class VTXTimeSeries:
             os.replace(tmp, self.directory / SEGMENTS)
 
     # ------------------------------------------------------------------ writing
-    def _open(self, mesh, functions: Sequence) -> None:
+    def _open(self, functions: Sequence) -> None:
         self.close()
         index = len(self.segments)
         nodes = [f for f in functions if compat.element_info(f.function_space).family == "P"]
@@ -76,16 +76,17 @@ class VTXTimeSeries:
                                                        group, mesh_policy="update"))
                 files[kind] = name
         self.segments.append({"files": files, "times": []})
-        self._segment_mesh = mesh
         self._segment_functions = list(functions)
 
     def write(self, t: float, mesh, functions: Sequence) -> None:
-        """Write the functions at time t (collective); a new mesh, or new function objects
-        (a writer holds the ones it was made with), start a new segment."""
-        same = (mesh is self._segment_mesh and len(functions) == len(self._segment_functions)
+        """Write the functions at time t (collective); new function objects — a new mesh
+        always brings them, a landing on the same mesh too; a writer holds the ones it was
+        made with — start a new segment. ``mesh`` is that of ``XDMFTimeSeries.write``; the
+        functions carry theirs."""
+        same = (len(functions) == len(self._segment_functions)
                 and all(f is g for f, g in zip(functions, self._segment_functions)))
         if not same:
-            self._open(mesh, functions)
+            self._open(functions)
         for writer in self._writers:
             writer.write(float(t))
         self.segments[-1]["times"].append(float(t))
@@ -111,5 +112,4 @@ class VTXTimeSeries:
         for writer in self._writers:
             writer.close()
         self._writers = []
-        self._segment_mesh = None
         self._segment_functions = []
