@@ -220,6 +220,31 @@ def grain_pressure(p, density, body_force, reference, mesh, kind: str = "total")
     return p - ambient_pressure(density, body_force, reference, mesh)
 
 
+#: the point of a cut cell whose pressure its grains' friction sees (``model.cut_cell_pressure``)
+CUT_CELL_PRESSURES = ("pointwise", "centroid")
+
+
+def cut_cell_pressure(p, c, centroid, mesh, kind: str = "pointwise"):
+    """The pressure the grains' friction sees in a cell the interface cuts (0 < c < 1) [Pa]::
+
+        pointwise   p(x)                              at every quadrature point
+        centroid    p(x_K) = p(x) + ∇p·(x_K − x)       (p ∈ P1: its value at the centroid x_K,
+                                                       the cell average)
+
+    Full and empty cells keep p(x). ``centroid`` is a DG0 vector field of the cells'
+    centroids (None with ``pointwise``). Why: the continuous P1 pressure cannot bend inside a
+    cell, so in a cut cell at a heap's surface the part of the cell above the grains has
+    p − p_a ≤ 0 and [·]_+ = 0, no yield stress, while the cell carries the grains' weight;
+    at the centroid the grains of the cell feel their depth (measured on the static heap:
+    docs/benchmarks/2026-12-04-cut-cell-pressure.md)."""
+    kind = _one_of(kind, CUT_CELL_PRESSURES, "cut-cell pressure")
+    if kind == "pointwise":
+        return p
+    at_centroid = p + ufl.dot(ufl.grad(p), centroid - ufl.SpatialCoordinate(mesh))
+    cut = ufl.And(ufl.gt(c, 0.0), ufl.lt(c, 1.0))
+    return ufl.conditional(cut, at_centroid, p)
+
+
 def compression_flux(c, u, v, n, dS, coefficient):
     """∫ C |u·n| φ (v⁺ − v⁻) dS, the interface compression: across a facet the flux from the
     emptier cell to the fuller one, φ = c⁺ (1 − c⁻) when c⁻ > c⁺, −c⁻ (1 − c⁺) when c⁺ > c⁻

@@ -20,12 +20,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import ufl
+from dolfinx import fem
 
 from dpcollapse import compat
 from dpcollapse.forms.picard import picard_terms
 from dpcollapse.forms.two_phase import (
     MixtureRheology,
     ambient_traction,
+    cut_cell_pressure,
     grad_div,
     grain_pressure,
     mixture,
@@ -36,6 +38,19 @@ from dpcollapse.models.stokes.state import FlowParameters
 from dpcollapse.models.two_phase.fraction import VolumeFraction
 from dpcollapse.scenes.base import BoundaryKind
 from dpcollapse.transfer import CellwiseField, concatenate
+
+
+def cell_centroids(mesh):
+    """A DG0 vector field of the cells' centroids x_K (the mean of their vertices; the fixed
+    box's geometry is affine), owned and ghost cells [m]."""
+    V = compat.vector_space(mesh, 0, "DG")
+    centroids = fem.Function(V)
+    gdim = mesh.geometry.dim
+    nodes = compat.geometry_dofmap(mesh)
+    x = mesh.geometry.x[nodes][:, :, :gdim].mean(axis=1)
+    blocks = compat.cell_dofs(V)[: len(x), 0]
+    centroids.x.array.reshape(-1, gdim)[blocks] = x
+    return centroids
 
 
 @dataclass(frozen=True)
@@ -50,6 +65,7 @@ class LightFluid:
     viscosity_average: str = "arithmetic"  # of S_g and 2η_a (forms.two_phase)
     yield_weighting: str = "grains"  # κ_mix = w(c) κ(p) (forms.two_phase.yield_weight)
     grain_pressure: str = "total"  # the p of κ(p), μ(I) and the bed friction (forms.two_phase)
+    cut_cell_pressure: str = "pointwise"  # that p in a cut cell: pointwise or at its centroid
 
 
 class TwoPhaseFlow(RegularizedFlow):
@@ -110,8 +126,12 @@ class TwoPhaseFlow(RegularizedFlow):
         # the grains' friction sees p, or p − p_a (model.grain_pressure: effective), p_a the
         # light fluid's hydrostatic pressure, zero at the domain's highest point
         self.highest = self.highest_point(self.params.body_force)
-        self.grain_pressure = p_k = grain_pressure(p_total, light.density, f, self.highest, mesh,
-                                                   light.grain_pressure)
+        p_k = grain_pressure(p_total, light.density, f, self.highest, mesh, light.grain_pressure)
+        # in a cell the interface cuts, read at every point or at the cell's centroid
+        # (model.cut_cell_pressure): the cell's yield stress, μ(I) and the walls' friction
+        centroid = cell_centroids(mesh) if light.cut_cell_pressure != "pointwise" else None
+        self.grain_pressure = p_k = cut_cell_pressure(p_k, clamped, centroid, mesh,
+                                                      light.cut_cell_pressure)
         self.law = law = MixtureRheology(p.rheology, clamped, light.viscosity,
                                          light.viscosity_average, light.yield_weighting)
         walls = [(f"{b.name}_friction", b.friction, b.tag) for b in p.boundaries if b.has_friction]
