@@ -130,12 +130,12 @@ class TwoPhaseModel(_Section):
         "+2.6 % at 15 with total) but the cut cells of a heap's flank settle at up to 1.9 mm/s "
         "(docs/benchmarks/2026-12-04-grain-pressure.md)")
     cut_cell_pressure: Literal["pointwise", "centroid"] = _f(
-        "pointwise", "", "Where model.grain_pressure is read in a cell the interface cuts "
-        "(0 < c < 1): pointwise (at every quadrature point; default) or centroid (the P1 "
-        "pressure's value at the cell's centroid, its cell average: the grains of a cut cell "
-        "feel their depth instead of the p - p_a <= 0 of the light fluid above them inside the "
-        "cell; holds a heap with grain_pressure effective: "
-        "docs/benchmarks/2026-12-04-cut-cell-pressure.md)")
+        "pointwise", "", "Where the yield stress and mu(I) of a cell the interface cuts "
+        "(0 < c < 1) read model.grain_pressure: pointwise (at every quadrature point; default) "
+        "or centroid (the P1 pressure's value at the cell's centroid, its cell average: the "
+        "grains of a cut cell feel their depth instead of the p - p_a <= 0 of the light fluid "
+        "above them inside the cell; holds a heap with grain_pressure effective). The walls' "
+        "friction reads it at the wall (docs/benchmarks/2026-12-04-cut-cell-pressure.md)")
     courant: Number = _f(
         0.4, "", "Courant number of the sub-cycled explicit advection of c (outflow of a cell per "
         "sub-step over its content)", gt=0, le=0.5)

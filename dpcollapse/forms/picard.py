@@ -35,7 +35,7 @@ from dpcollapse.forms.surface_tension import surface_tension
 def picard_terms(law, *, rho, dt, body_force, epsilon, epsilon_friction, u_iter, p_iter, u_old,
                  mesh_velocity, trial, test, n, dx=ufl.dx, ds=None, friction_walls=(),
                  side_walls=None, weak_walls=(), surface=None,
-                 convection: str = "implicit") -> tuple[dict, dict]:
+                 convection: str = "implicit", p_walls=None) -> tuple[dict, dict]:
     """(lhs, rhs): the named bilinear and linear terms (UFL forms) of one Picard iteration.
 
     law: a :class:`~dpcollapse.rheology.base.Rheology`; trial = (u, p), test = (v, q);
@@ -43,7 +43,10 @@ def picard_terms(law, *, rho, dt, body_force, epsilon, epsilon_friction, u_iter,
     side_walls: (w, μ_w) for width-averaged side-wall friction, or None;
     weak_walls: (term name, facet tag) of each slanted solid side (Nitsche's u·n = 0);
     surface: (γ, ds over the free surface) of the local surface tension, or None;
-    convection: "implicit" (lhs, linearized at uᵏ) or "lagged" (rhs, at uᵏ: symmetric lhs).
+    convection: "implicit" (lhs, linearized at uᵏ) or "lagged" (rhs, at uᵏ: symmetric lhs);
+    p_walls: the pressure in the walls' normal stress [p − σ'_nn]_+ and the side walls'
+    friction (None: ``p_iter``; the two-phase model's cut cells read ``p_iter`` at their
+    centroid, the walls at the wall).
     """
     (u, p), (v, q) = trial, test
     secant = law.secant_viscosity(u_iter, p_iter, epsilon)
@@ -57,14 +60,15 @@ def picard_terms(law, *, rho, dt, body_force, epsilon, epsilon_friction, u_iter,
         "pressure": momentum.pressure(p, v),
         "incompressibility": momentum.incompressibility(q, u),
     }
+    p_walls = p_iter if p_walls is None else p_walls
     if friction_walls:
-        normal_stress = friction.normal_pressure(p_iter, law.deviatoric_stress(u_iter, p_iter, epsilon), n)
+        normal_stress = friction.normal_pressure(p_walls, law.deviatoric_stress(u_iter, p_iter, epsilon), n)
         for name, mu, tag in friction_walls:
             lhs[name] = friction.coulomb_friction(mu, normal_stress, u_iter, epsilon_friction, u, v, n,
                                                   ds(tag))
     if side_walls is not None:
         width, mu_side = side_walls
-        lhs["side_wall_friction"] = friction.side_wall_friction(width, mu_side, p_iter, u_iter,
+        lhs["side_wall_friction"] = friction.side_wall_friction(width, mu_side, p_walls, u_iter,
                                                                 epsilon_friction, u, v, dx)
     for name, tag in weak_walls:
         lhs[name] = no_penetration.nitsche_no_penetration(secant, u, p, v, q, n, ds(tag))

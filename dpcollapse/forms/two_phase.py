@@ -225,7 +225,8 @@ CUT_CELL_PRESSURES = ("pointwise", "centroid")
 
 
 def cut_cell_pressure(p, c, centroid, mesh, kind: str = "pointwise"):
-    """The pressure the grains' friction sees in a cell the interface cuts (0 < c < 1) [Pa]::
+    """The pressure the grains' yield stress and μ(I) see in a cell the interface cuts
+    (0 < c < 1) [Pa] (the walls' friction reads p at the wall: ``forms.picard``'s ``p_walls``)::
 
         pointwise   p(x)                              at every quadrature point
         centroid    p(x_K) = p(x) + ∇p·(x_K − x)       (p ∈ P1: its value at the centroid x_K,

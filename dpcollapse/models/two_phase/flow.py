@@ -126,9 +126,10 @@ class TwoPhaseFlow(RegularizedFlow):
         # the grains' friction sees p, or p − p_a (model.grain_pressure: effective), p_a the
         # light fluid's hydrostatic pressure, zero at the domain's highest point
         self.highest = self.highest_point(self.params.body_force)
-        p_k = grain_pressure(p_total, light.density, f, self.highest, mesh, light.grain_pressure)
-        # in a cell the interface cuts, read at every point or at the cell's centroid
-        # (model.cut_cell_pressure): the cell's yield stress, μ(I) and the walls' friction
+        p_walls = p_k = grain_pressure(p_total, light.density, f, self.highest, mesh,
+                                       light.grain_pressure)
+        # in a cell the interface cuts, the cell's yield stress and μ(I) read it at every point
+        # or at the cell's centroid (model.cut_cell_pressure); the walls' friction at the wall
         centroid = cell_centroids(mesh) if light.cut_cell_pressure != "pointwise" else None
         self.grain_pressure = p_k = cut_cell_pressure(p_k, clamped, centroid, mesh,
                                                       light.cut_cell_pressure)
@@ -140,7 +141,7 @@ class TwoPhaseFlow(RegularizedFlow):
             u_iter=u_k, p_iter=p_k, u_old=self.u_old, mesh_velocity=self.mesh_velocity,
             trial=(u, pr), test=(v, q), n=n, dx=dx, ds=ds,
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
-            weak_walls=self.weak_walls())
+            weak_walls=self.weak_walls(), p_walls=p_walls)
         # the convection in skew-symmetric form: no kinetic energy from the jumps of ρ(c);
         # backflow stabilization on every open side (the top, an orifice)
         open_tags = self._tags_of(BoundaryKind.FREE_SURFACE, BoundaryKind.OUTFLOW)
