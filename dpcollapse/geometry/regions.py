@@ -19,7 +19,9 @@ from dpcollapse.geometry.mesher import DOMAIN, TaggedMesh
 from dpcollapse.transfer import CellwiseField, concatenate
 
 
-def _local_cell_vertices(mesh, owned_only: bool) -> np.ndarray:
+def cell_triangles(mesh, owned_only: bool = True) -> np.ndarray:
+    """(n, 3, 2) vertex coordinates of the owned cells (``owned_only``) or of every local
+    cell, ghosts included, in local cell order."""
     n = compat.num_owned_cells(mesh) if owned_only else len(compat.geometry_dofmap(mesh))
     return mesh.geometry.x[:, :2][compat.geometry_dofmap(mesh)[:n, :3]]
 
@@ -39,14 +41,14 @@ def gather_regions(tagged: TaggedMesh) -> CellwiseField | None:
     tags = np.full(n, DOMAIN, dtype=np.int64)
     owned = ct.indices < n
     tags[ct.indices[owned]] = ct.values[owned]
-    part = region_field(_local_cell_vertices(mesh, True), tags)
+    part = region_field(cell_triangles(mesh, True), tags)
     return concatenate(mesh.comm.allgather(part))
 
 
 def tag_cells(mesh, field: CellwiseField):
     """Cell tags of every local cell of ``mesh`` (owned and ghost): the tag of the cell of
     ``field`` that contains the cell's centroid."""
-    centroids = _local_cell_vertices(mesh, False).mean(axis=1)
+    centroids = cell_triangles(mesh, False).mean(axis=1)
     cells, _ = field.locate(centroids)
     tags = np.rint(field.values[cells, 0, 0]).astype(np.int32)
     return compat.meshtags(mesh, mesh.topology.dim, np.arange(len(centroids), dtype=np.int32), tags)

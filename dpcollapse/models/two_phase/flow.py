@@ -33,6 +33,7 @@ from dpcollapse.forms.two_phase import (
     mixture,
     skew_convection,
 )
+from dpcollapse.geometry.regions import cell_triangles
 from dpcollapse.models.stokes.regularized import PicardSettings, RegularizedFlow
 from dpcollapse.models.stokes.state import FlowParameters
 from dpcollapse.models.two_phase.fraction import VolumeFraction
@@ -45,11 +46,8 @@ def cell_centroids(mesh):
     box's geometry is affine), owned and ghost cells [m]."""
     V = compat.vector_space(mesh, 0, "DG")
     centroids = fem.Function(V)
-    gdim = mesh.geometry.dim
-    nodes = compat.geometry_dofmap(mesh)
-    x = mesh.geometry.x[nodes][:, :, :gdim].mean(axis=1)
-    blocks = compat.cell_dofs(V)[: len(x), 0]
-    centroids.x.array.reshape(-1, gdim)[blocks] = x
+    x = cell_triangles(mesh, owned_only=False).mean(axis=1)
+    centroids.x.array.reshape(-1, 2)[compat.cell_dofs(V)[:, 0]] = x
     return centroids
 
 

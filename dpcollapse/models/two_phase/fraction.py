@@ -28,13 +28,13 @@ from dpcollapse.forms.two_phase import (
     outflow_rate,
     outflow_volume_rate,
 )
+from dpcollapse.geometry.regions import cell_triangles
 from dpcollapse.models.two_phase.remap import remap
 
 
 def owned_triangles(mesh) -> np.ndarray:
     """(n_owned, 3, 2) vertex coordinates of the owned cells."""
-    n = compat.num_owned_cells(mesh)
-    return mesh.geometry.x[:, :2][compat.geometry_dofmap(mesh)[:n, :3]]
+    return cell_triangles(mesh, owned_only=True)
 
 
 class VolumeFraction:
