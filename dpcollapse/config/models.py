@@ -123,19 +123,20 @@ class TwoPhaseModel(_Section):
         "before: reproduces earlier runs); sharp w = H(c - 1/2); saturated w = min(1, 2c) "
         "(issue 27: docs/benchmarks/2026-12-04-two-phase-yield-weighting.md)")
     grain_pressure: Literal["effective", "total"] = _f(
-        "total", "", "Pressure in the grains' yield stress kappa(p), in mu(I)'s I and in the bed "
-        "friction: total p (default), or effective p - p_a, p_a = rho_a g (depth below the "
-        "domain's highest point), the light fluid's hydrostatic pressure that grain contacts do "
-        "not carry: deposits independent of air_density (within 0.84 % over 1-15 kg/m^3, against "
-        "+2.6 % at 15 with total) but the cut cells of a heap's flank settle at up to 1.9 mm/s "
-        "(docs/benchmarks/2026-12-04-grain-pressure.md)")
+        "effective", "", "Pressure in the grains' yield stress kappa(p), in mu(I)'s I and in the "
+        "bed friction: effective p - p_a (default since 2026-12-05), p_a = rho_a g (depth below "
+        "the domain's highest point), the light fluid's hydrostatic pressure that grain contacts "
+        "do not carry: deposits independent of air_density (within 0.84 % over 1-15 kg/m^3); or "
+        "total p (the default before: +2.6 % deposit height at 15 kg/m^3, the light fluid's "
+        "weight a cohesion) (docs/benchmarks/2026-12-04-grain-pressure.md)")
     cut_cell_pressure: Literal["pointwise", "centroid"] = _f(
-        "pointwise", "", "Where the yield stress and mu(I) of a cell the interface cuts "
-        "(0 < c < 1) read model.grain_pressure: pointwise (at every quadrature point; default) "
-        "or centroid (the P1 pressure's value at the cell's centroid, its cell average: the "
-        "grains of a cut cell feel their depth instead of the p - p_a <= 0 of the light fluid "
-        "above them inside the cell; holds a heap with grain_pressure effective). The walls' "
-        "friction reads it at the wall (docs/benchmarks/2026-12-04-cut-cell-pressure.md)")
+        "centroid", "", "Where the yield stress and mu(I) of a cell the interface cuts "
+        "(0 < c < 1) read model.grain_pressure: centroid (default since 2026-12-05: the P1 "
+        "pressure's value at the cell's centroid, its cell average: the grains of a cut cell "
+        "feel their depth instead of the p - p_a <= 0 of the light fluid above them inside the "
+        "cell; holds a heap with grain_pressure effective) or pointwise (at every quadrature "
+        "point; the default before). The walls' friction reads it at the wall "
+        "(docs/benchmarks/2026-12-04-cut-cell-pressure.md)")
     courant: Number = _f(
         0.4, "", "Courant number of the sub-cycled explicit advection of c (outflow of a cell per "
         "sub-step over its content)", gt=0, le=0.5)

@@ -104,7 +104,7 @@ def test_the_a142_deposit_comes_to_rest(tmp_path):
 
 
 def test_the_deposit_does_not_feel_the_light_fluid_s_density(tmp_path):
-    """model.grain_pressure effective (not the default): the grains' friction sees p − ρ_a g
+    """model.grain_pressure effective (the default since 2026-12-05): the grains' friction sees p − ρ_a g
     (depth below the open top), so the a = 1.42 deposit (2 cm, t = 0.8 s) has the same height
     at ρ_a = 1.55 and 15 kg/m³ (measured: 0.08079 / 0.08083 m, +0.05 %); with the total pressure
     the light fluid's weight is a cohesion and ρ_a = 15 raises it by 2.3 % (0.08265 m)."""
@@ -131,12 +131,14 @@ HEAP = ["time.scheme=bdf1", "time.tolerance=null", "model.name=two_phase", "nume
 def test_a_heap_below_the_friction_angle_holds_only_with_the_grains_yield_stress(tmp_path):
     """model.yield_weighting: with the grains' own yield stress in every cell with grains
     (grains) the heap stays at rest (measured 5e-4 mm/s after the start); with the volume-weighted c κ(p) (the default before 2026-12-04) its flank flows (measured
-    30 mm/s at 0.1–0.25 s: cut cells with c < tan θ/μ_s cannot hold)."""
+    30 mm/s at 0.1–0.25 s: cut cells with c < tan θ/μ_s cannot hold). Measured with the total
+    pressure read pointwise (the defaults before 2026-12-05), which this test keeps."""
     speeds = {}
     for weighting in ("grains", "volume"):
         out = tmp_path / weighting
-        summary = simulation("rigid.yaml", HEAP + [f"model.yield_weighting={weighting}"], out,
-                             comm=MPI.COMM_SELF).run()
+        over = HEAP + [f"model.yield_weighting={weighting}", "model.grain_pressure=total",
+                       "model.cut_cell_pressure=pointwise"]
+        summary = simulation("rigid.yaml", over, out, comm=MPI.COMM_SELF).run()
         assert summary["status"] == "end_time", summary
         d = read_diagnostics(out / "diagnostics.csv")
         speeds[weighting] = np.array(d["max_speed"])
@@ -149,7 +151,7 @@ def test_a_heap_below_the_friction_angle_holds_only_with_the_grains_yield_stress
 
 
 def test_a_heap_holds_under_the_effective_pressure_read_at_cut_cells_centroids(tmp_path):
-    """model.cut_cell_pressure: with the effective pressure (the light fluid's weight taken
+    """model.cut_cell_pressure (centroid the default since 2026-12-05): with the effective pressure (the light fluid's weight taken
     out) read pointwise, the heap's cut cells have p − p_a ≤ 0 above the grains and settle
     (measured 1.87 mm/s at first, 0.47 mm/s at 0.3 s); read at the cut cells' centroids (the
     walls' friction at the wall) the heap holds within issue 27's 1 mm/s (measured 0.47 mm/s

@@ -96,8 +96,9 @@ def test_centroid_pressure_by_hand(mesh):
 
 def test_the_model_reads_the_key(tmp_path):
     """The two-phase model of the a = 1.42 column (2 cm) with ``centroid``: in a cut cell
-    the grains' yield stress is κ at the centroid's pressure."""
-    over = ["geometry.mesh_size=0.02", "model.cut_cell_pressure=centroid"]
+    the grains' yield stress is κ at the centroid's pressure (the total pressure: p itself
+    elsewhere)."""
+    over = ["geometry.mesh_size=0.02", "model.cut_cell_pressure=centroid", "model.grain_pressure=total"]
     flow = simulation(CONFIG, over, tmp_path, comm=MPI.COMM_SELF).disc.flow
     pressure = fem.Function(flow.Q)
     pressure.interpolate(lambda x: 1000.0 * (0.5 - x[1]))
@@ -110,10 +111,10 @@ def test_the_model_reads_the_key(tmp_path):
     assert seen[cut[: len(seen)]].max() > 1e-6
 
 
-def test_the_key_defaults_to_pointwise(capsys):
-    assert load_config(CONFIG).model.cut_cell_pressure == "pointwise"
-    cfg = load_config(CONFIG, ["model.cut_cell_pressure=centroid"])
-    assert cfg.model.cut_cell_pressure == "centroid"
+def test_the_key_defaults_to_centroid(capsys):
+    assert load_config(CONFIG).model.cut_cell_pressure == "centroid"
+    cfg = load_config(CONFIG, ["model.cut_cell_pressure=pointwise"])
+    assert cfg.model.cut_cell_pressure == "pointwise"
     message = refusal_message(CONFIG, "model.cut_cell_pressure=surface",
                               "model.cut_cell_pressure", capsys)
     assert all(name in message for name in CUT_CELL_PRESSURES)

@@ -79,8 +79,8 @@ def test_the_model_measures_from_its_open_top(kind, tmp_path):
         assert got == pytest.approx(exact, rel=1e-6)
 
 
-def test_the_key_defaults_to_total(capsys):
-    assert load_config(CONFIG).model.grain_pressure == "total"
-    assert load_config(CONFIG, ["model.grain_pressure=effective"]).model.grain_pressure == "effective"
+def test_the_key_defaults_to_effective(capsys):
+    assert load_config(CONFIG).model.grain_pressure == "effective"
+    assert load_config(CONFIG, ["model.grain_pressure=total"]).model.grain_pressure == "total"
     message = refusal_message(CONFIG, "model.grain_pressure=contact", "model.grain_pressure", capsys)
     assert all(name in message for name in GRAIN_PRESSURES)
