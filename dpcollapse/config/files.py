@@ -182,11 +182,30 @@ def with_overrides(cfg: Config, overrides: Sequence[str]) -> Config:
     return validate_config(_apply_overrides(config_to_dict(cfg), overrides))
 
 
+#: two-phase keys whose default has changed since they were added: the value a program older
+#: than the key ran with (a saved two-phase config without the key ran with it, not with
+#: today's default)
+LEGACY_DEFAULTS = {
+    ("model", "yield_weighting"): "volume",       # default grains since 2026-12-04
+    ("model", "grain_pressure"): "total",         # default effective since 2026-12-05
+    ("model", "cut_cell_pressure"): "pointwise",  # default centroid since 2026-12-05
+}
+
+
 def from_saved(data: Any) -> Any:
     """A config this program wrote (config.yaml, run.json's "config"), perhaps by a version
     of before 2026-12-04, whose single material class wrote every law's keys: those of
-    another law than its ``rheology`` are dropped (they had no effect). Other data as is."""
-    material = data.get("material") if isinstance(data, dict) else None
+    another law than its ``rheology`` are dropped (they had no effect). A two-phase config
+    without a key of ``LEGACY_DEFAULTS`` gets the value its program ran with. Other data as is."""
+    if not isinstance(data, dict):
+        return data
+    model = data.get("model")
+    if isinstance(model, dict) and model.get("name") == "two_phase":
+        missing = {key: value for (section, key), value in LEGACY_DEFAULTS.items()
+                   if section == "model" and key not in model}
+        if missing:
+            data = {**data, "model": {**model, **missing}}
+    material = data.get("material")
     law = MATERIALS.get(_rheology_of(material)) if isinstance(material, dict) else None
     if law is None:
         return data

@@ -340,3 +340,22 @@ def test_a_config_written_before_the_material_union_still_reads():
         validate_config(old)
     assert from_saved(old) == config_to_dict(cfg)
     assert from_saved(None) is None and from_saved({"time": {}}) == {"time": {}}
+
+
+def test_a_two_phase_config_saved_before_a_default_changed_reads_with_the_old_value():
+    """A two-phase run saved by a program older than model.cut_cell_pressure (or
+    grain_pressure, yield_weighting) ran with the value the key was added with, not with
+    today's default: resume and the sweep's staleness check must see that."""
+    from dpcollapse.config import config_to_dict, from_saved, validate_config
+    from dpcollapse.config.files import LEGACY_DEFAULTS
+
+    cfg = load_config(ROOT / "configs" / "column_eulerian_a1.42.yaml")
+    old = config_to_dict(cfg)
+    for section, key in LEGACY_DEFAULTS:
+        del old[section][key]
+    read = config_to_dict(validate_config(from_saved(old)))
+    for (section, key), value in LEGACY_DEFAULTS.items():
+        assert read[section][key] == value != getattr(getattr(cfg, section), key)
+    assert from_saved(config_to_dict(cfg)) == config_to_dict(cfg)   # written keys win
+    rigid = config_to_dict(load_config(RIGID))                       # not two-phase: as is
+    assert from_saved(rigid) == rigid
