@@ -42,6 +42,31 @@ def test_a_checkpoint_of_a_run_with_the_same_config_is_refused(tmp_path, capsys)
     assert "belongs to another run" in _one_error_line(capsys.readouterr().err)
 
 
+def test_a_run_of_a_program_older_than_a_key_resumes(tmp_path, monkeypatch):
+    """A program older than a config key wrote config.yaml and fingerprinted its config
+    without it (simulated: output.format dropped from both); this program, whose config has
+    the key at the value the older one ran with, resumes the run."""
+    import yaml
+
+    import dpcollapse.simulation as simulation
+
+    def older(cfg):
+        data = simulation.config_to_dict(cfg)
+        del data["output"]["format"]
+        return simulation._fingerprint(data)
+
+    out = tmp_path / "run"
+    with monkeypatch.context() as patch:
+        patch.setattr(simulation, "config_fingerprint", older)
+        assert _run(out, end=0.004) == 0
+    saved = yaml.safe_load((out / "config.yaml").read_text())
+    del saved["output"]["format"]
+    (out / "config.yaml").write_text(yaml.safe_dump(saved, sort_keys=False))
+    assert _run(out, "--resume", end=0.006) == 0
+    assert json.loads((out / "run.json").read_text())["summary"]["steps"] == 6
+    assert_whole(out)
+
+
 def test_resume_drops_a_truncated_step_and_rebuilds_the_lost_csv_row(tmp_path, capsys):
     out = tmp_path / "run"
     assert _run(out, end=0.006) == 0             # checkpoints at steps 2, 4, 6
