@@ -256,6 +256,15 @@ def compression_flux(c, u, v, n, dS, coefficient):
     return coefficient * un * phi * (v('+') - v('-')) * dS
 
 
+def compression_weights(c, u, v, n, dS):
+    """∫ |u·n| (c⁻ v⁺ − c⁺ v⁻) dS with c the DG0 trial function: the matrix whose entry of
+    a facet's cells (K⁺, K⁻) is +∫_f |u·n| ds and of (K⁻, K⁺) its negative — the weight of
+    ``compression_flux`` on that facet and, by its sign, the facet's orientation (which cell
+    is '+'), so the flux can be evaluated cell pair by cell pair without reassembly."""
+    un = abs(ufl.dot(u('+'), n('+')))
+    return un * (c('-') * v('+') - c('+') * v('-')) * dS
+
+
 def outflow_rate(u, v, n, dS, ds, coefficient):
     """∫_∂K ((u·n)⁺ + C |u·n|) v: the largest rate at which a cell can empty, times |K|
     (sub-step Δt ≤ Co |K| / this keeps c ≥ 0)."""

@@ -53,9 +53,13 @@ class SizeField:
         """h at ``points`` (n, 2) for granular cell centroids ``granular`` (m, 2)."""
         if len(granular) == 0:
             return np.full(len(points), self.max_cell)
-        d, _ = cKDTree(granular).query(points)
-        return np.minimum(self.max_cell,
-                          self.min_cell + self.grading * np.maximum(d - self.band, 0.0))
+        # each distinct point once (the background grid repeats its vertices), and no search
+        # beyond the distance where h reaches max_cell (cKDTree returns inf there)
+        unique, inverse = np.unique(points, axis=0, return_inverse=True)
+        reach = self.band + (self.max_cell - self.min_cell) / self.grading
+        d, _ = cKDTree(granular).query(unique, distance_upper_bound=reach * (1 + 1e-9))
+        h = np.minimum(self.max_cell, self.min_cell + self.grading * np.maximum(d - self.band, 0.0))
+        return h[inverse.reshape(-1)]
 
 
 def background_grid(length: float, height: float, spacing: float) -> np.ndarray:

@@ -5,9 +5,9 @@ advected with the sub-step count of c.
 
 * ``VolumeFraction``: c, and ``advance(dt)``: N sub-steps of
   c_K ← c_K − (Δt/N)/|K| ∫_∂K (F_upwind + F_compression) ds, with N the smallest count such
-  that (Δt/N) max_K ∫_∂K ((u·n)⁺ + C|u·n|) ds / |K| ≤ the Courant number. Under MPI the facet
-  integrals of the cells on the partition boundary are summed by a reverse scatter and the
-  ghost values of c updated by a forward scatter after every sub-step.
+  that (Δt/N) max_K ∫_∂K ((u·n)⁺ + C|u·n|) ds / |K| ≤ the Courant number. The fluxes' matrices
+  are assembled once per step and each sub-step is a sparse product (``fluxes``). Under MPI
+  the ghost values of c are updated by a forward scatter after every sub-step.
 """
 
 from __future__ import annotations
@@ -23,12 +23,13 @@ from petsc4py import PETSc
 
 from dpcollapse import compat
 from dpcollapse.forms.two_phase import (
-    compression_flux,
+    compression_weights,
     fraction_flux,
     outflow_rate,
     outflow_volume_rate,
 )
 from dpcollapse.geometry.regions import cell_triangles
+from dpcollapse.models.two_phase.fluxes import StepFluxes
 from dpcollapse.models.two_phase.remap import remap
 
 
@@ -59,7 +60,8 @@ class VolumeFraction:
         volume.destroy()
         self._integral = fem.form(self.c * ufl.dx(domain=mesh))
         self._b = None
-        self._outflow = None          # ∫_out (u·n)⁺ c ds of the sub-steps (``watch_outflow``)
+        self._fluxes = None           # the sub-steps' flux matrices (``bind``)
+        self._outflow = None          # ∫_out (u·n)⁺ v ds: the outflow sides' weights (``watch_outflow``)
         self.outflow_volume = 0.0     # material that left through the outflow sides [m²]
         self.pending_outflow = 0.0    # of the step not yet accepted
         self.step_outflow = (0.0, 0.0)  # (volume, Δt) of the last accepted step
@@ -68,16 +70,15 @@ class VolumeFraction:
     def bind(self, u) -> None:
         """Build the flux and rate forms for the velocity ``u``."""
         mesh, C = self.mesh, self.compression
-        v = ufl.TestFunction(self.S0)
+        v, trial = ufl.TestFunction(self.S0), ufl.TrialFunction(self.S0)
         n = ufl.FacetNormal(mesh)
         dS, ds = ufl.dS(domain=mesh), ufl.ds(domain=mesh)
-        flux = fraction_flux(self.work, u, v, n, dS, ds)
-        if C > 0:
-            flux = flux + compression_flux(self.work, u, v, n, dS, C)
-        self._flux = fem.form(flux)
+        self._fluxes = StepFluxes(fem.form(fraction_flux(trial, u, v, n, dS, ds)),
+                                  fem.form(compression_weights(trial, u, v, n, dS)),
+                                  self.S0.dofmap.index_map, C)
         self._rate = fem.form(outflow_rate(u, v, n, dS, ds, C))
         self._divergence = fem.form(ufl.div(u) * v * ufl.dx(domain=mesh))
-        self._b = compat.create_vector(self._flux)
+        self._b = compat.create_vector(self._rate)
         self._u = u
 
     def watch_outflow(self, ds_out) -> None:
@@ -85,7 +86,8 @@ class VolumeFraction:
         ``bind``): each sub-step adds (Δt/N) ∫_out (u·n)⁺ c ds, exactly what the upwind
         fluxes take out there, so ∫ c dx + ``outflow_volume`` is conserved to round-off."""
         n = ufl.FacetNormal(self.mesh)
-        self._outflow = fem.form(outflow_volume_rate(self.work, self._u, n, ds_out))
+        v = ufl.TestFunction(self.S0)
+        self._outflow = fem.form(outflow_volume_rate(v, self._u, n, ds_out))
 
     def set_values(self, owned_values: np.ndarray) -> None:
         """cⁿ of the owned cells (in dof order); ghosts updated."""
@@ -141,11 +143,14 @@ class VolumeFraction:
             steps = max(1, math.ceil(dt * rate / self.courant - 1e-12)) if rate > 0 else 1
         h = dt / steps
         self.work.x.array[:] = self.c.x.array
+        self._fluxes.assemble()
+        weights = None if self._outflow is None else self._assemble(self._outflow).copy()
         out = 0.0
         for _ in range(steps):
-            if self._outflow is not None:
-                out += h * self.comm.allreduce(fem.assemble_scalar(self._outflow), op=MPI.SUM)
-            residual = self._assemble(self._flux)
+            if weights is not None:
+                local = float(weights @ self.work.x.array[:self._n])
+                out += h * self.comm.allreduce(local, op=MPI.SUM)
+            residual = self._fluxes.residual(self.work.x.array)
             self.work.x.array[:self._n] -= h * residual / self.volume
             self.work.x.scatter_forward()
         self.pending = self.work.x.array.copy()
@@ -177,3 +182,5 @@ class VolumeFraction:
     def destroy(self) -> None:
         if self._b is not None:
             self._b.destroy()
+        if self._fluxes is not None:
+            self._fluxes.destroy()
