@@ -5,8 +5,10 @@
                                                               # (T: at t sqrt(g/H0) = T instead of the end)
     python scripts/column_plots.py fraction OUT.png RUN_DIR...  # two_phase: c at the last output
     python scripts/column_plots.py laws OUT.png T NAME=SWEEP_DIR...  # several sweeps in one plot,
-                                                              # mass fronts at t sqrt(g/H0) = T
-                                                              # (T = end: each run's last step)
+                                                              # fronts at t sqrt(g/H0) = T
+                                                              # (T = end: each run's last step);
+                                                              # writes the points to OUT.csv
+    python scripts/column_plots.py table OUT.png LAW.csv      # the same plot from such a table
 
 ``law`` also prints the fitted power laws ΔL/L0 = c a^n on a ≤ 3 and a ≥ 3 and
 H_f/L0 = c a^n on a ≥ 0.7, per bed condition and mesh size, from the cases at rest or at
@@ -139,38 +141,66 @@ def law_plot(sweep_dir: Path, out: Path, scaled_time: float | None = None) -> No
     fig.savefig(out, dpi=120)
 
 
-def laws_plot(out: Path, scaled_time: float, sweeps: list[tuple[str, Path]]) -> None:
-    """The mass front ΔL/L0 and the top height H_f/L0 at t √(g/H0) = ``scaled_time`` of several
-    sweeps (e.g. two mesh levels, two bed conditions), one line each; prints a markdown table
-    row per run (with the run's end: at rest at t √(g/H0) = …, or its end time) and the fits."""
+LAW_COLUMNS = ("sweep", "a", "min_cell", "mass_front", "thickness_front", "max_height", "status",
+               "scaled_time", "area_drift", "wall_time")
+
+
+def law_points(name: str, sweep_dir: Path, scaled_time: float) -> list[dict]:
+    """One row of LAW_COLUMNS per run of a sweep that ended at rest or at its end time: the
+    fronts ΔL/L0 (mass: c > ½ or the mesh; thickness) and H_f/L0 at t √(g/H0) = ``scaled_time``
+    (inf: the last step), the scaled time of the run's end, its area drift and wall time."""
     l0 = 0.1
+    with (sweep_dir / "sweep.csv").open() as f:
+        rows = [r for r in csv.DictReader(f) if r.get("status") in ("at_rest", "end_time")]
+    points = []
+    for r in rows:
+        picked = at_scaled_time(sweep_dir, r, scaled_time)
+        run_json = json.loads((sweep_dir / r["run_dir"] / "run.json").read_text())
+        summ, cfg = run_json["summary"], run_json["config"]
+        points.append({
+            "sweep": name, "a": f"{float(r[H0_KEY]) / l0:.9g}",
+            # the fine cells of an adaptive box, else the mesh size
+            "min_cell": cfg.get("model", {}).get("min_cell") or cfg["geometry"]["mesh_size"],
+            "mass_front": f"{(float(picked['front']) - l0) / l0:.4f}",
+            "thickness_front": f"{(float(picked['thick_front']) - l0) / l0:.4f}",
+            "max_height": f"{float(picked['max_height']) / l0:.4f}", "status": r["status"],
+            "scaled_time": f"{summ['t'] * np.sqrt(9.81 / float(r[H0_KEY])):.2f}",
+            "area_drift": f"{summ['area_drift']:.1e}", "wall_time": r.get("wall_time") or ""})
+    return points
+
+
+def read_law_table(path: Path) -> dict[str, list[dict]]:
+    """The law points of a table written by ``laws`` (or transcribed from a report), by sweep."""
+    with path.open() as f:
+        rows = list(csv.DictReader(f))
+    missing = set(LAW_COLUMNS) - set(rows[0] if rows else ())
+    if missing:
+        sys.exit(f"{path}: columns {sorted(missing)} missing (needs {', '.join(LAW_COLUMNS)})")
+    table: dict[str, list[dict]] = {}
+    for r in rows:
+        table.setdefault(r["sweep"], []).append(r)
+    return table
+
+
+def laws_plot(out: Path, scaled_time: float, table: dict[str, list[dict]]) -> None:
+    """The fronts ΔL/L0 (mass: solid, thickness: dotted) and the top height H_f/L0 of several
+    sweeps (e.g. two mesh levels, two bed conditions), one line each, from rows of LAW_COLUMNS;
+    prints a markdown table row per run and the fits."""
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
-    print("| sweep | a | ΔX [m] | ΔL/L0 mass | ΔL/L0 thickness | H_f/L0 | end | ΔL/L0 mass at the end "
-          "| H_f/L0 at the end | area drift | wall [s] |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
-    for (name, sweep_dir), marker in zip(sweeps, "osD^v"):
-        with (sweep_dir / "sweep.csv").open() as f:
-            rows = [r for r in csv.DictReader(f) if r.get("status") in ("at_rest", "end_time")]
-        picked = [at_scaled_time(sweep_dir, r, scaled_time) for r in rows]
-        a = np.round([float(r[H0_KEY]) / l0 for r in rows], 9)
-        order = np.argsort(a)
-        a = a[order]
-        run = np.array([(float(picked[i]["front"]) - l0) / l0 for i in order])
-        thick = np.array([(float(picked[i]["thick_front"]) - l0) / l0 for i in order])
-        hf = np.array([float(picked[i]["max_height"]) / l0 for i in order])
-        rested = np.array([rows[i]["status"] == "at_rest" for i in order])
-        for k, i in enumerate(order):
-            r = rows[i]
-            run_json = json.loads((sweep_dir / r["run_dir"] / "run.json").read_text())
-            summ = run_json["summary"]
-            t_scale = np.sqrt(9.81 / float(r[H0_KEY]))
-            end = (f"at rest, T = {summ['t'] * t_scale:.1f}" if r["status"] == "at_rest"
-                   else f"end time, T = {summ['t'] * t_scale:.1f}")
-            cfg = run_json["config"]   # the fine cells of an adaptive box, else the mesh size
-            cell = cfg.get("model", {}).get("min_cell") or cfg["geometry"]["mesh_size"]
-            print(f"| {name} | {a[k]:g} | {cell} | {run[k]:.2f} | {thick[k]:.2f} "
-                  f"| {hf[k]:.3f} | {end} | {(summ['front'] - l0) / l0:.2f} | {summ['max_height'] / l0:.3f} "
-                  f"| {summ['area_drift']:.1e} | {float(r.get('wall_time') or 'nan'):.0f} |")
+    print("| sweep | a | ΔX [m] | ΔL/L0 mass | ΔL/L0 thickness | H_f/L0 | end, T | area drift | wall [s] |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for (name, rows), marker in zip(table.items(), "osD^v"):
+        rows = sorted(rows, key=lambda r: float(r["a"]))
+        a = np.round([float(r["a"]) for r in rows], 9)   # 0.3/0.1 = 2.9999999999999996
+        run = np.array([float(r["mass_front"]) for r in rows])
+        thick = np.array([float(r["thickness_front"]) for r in rows])
+        hf = np.array([float(r["max_height"]) for r in rows])
+        rested = np.array([r["status"] == "at_rest" for r in rows])
+        for k, r in enumerate(rows):
+            end = "at rest" if r["status"] == "at_rest" else "end time"
+            wall = f"{float(r['wall_time']):.0f}" if r["wall_time"] else "–"
+            print(f"| {name} | {a[k]:g} | {r['min_cell']} | {run[k]:.2f} | {thick[k]:.2f} | {hf[k]:.3f} "
+                  f"| {end}, {float(r['scaled_time']):.1f} | {float(r['area_drift']):.1e} | {wall} |")
         line = ax1.loglog(a, run, marker + "-", label=name + " (mass front)")[0]
         ax1.loglog(a, thick, marker + ":", color=line.get_color(), label=name + " (thickness front)")
         ax2.loglog(a, hf, marker + "-", color=line.get_color(), label=name)
@@ -183,7 +213,7 @@ def laws_plot(out: Path, scaled_time: float, sweeps: list[tuple[str, Path]]) -> 
             print(f"{name}: {label} {fit_text(a, y, cut, above, padding=False)}")
     experimental_laws(ax1, ax2)
     when = "the end of each run" if np.isinf(scaled_time) else f"t √(g/H0) = {scaled_time:g}"
-    fig.suptitle(f"mass front and top height at {when} "
+    fig.suptitle(f"fronts (mass: solid, thickness: dotted) and top height at {when} "
                  "(open: the run did not meet the rest rule by its end)")
     ax1.set_xlabel("a = H0/L0"), ax1.set_ylabel("ΔL/L0"), ax1.legend(fontsize=6)
     ax2.set_xlabel("a = H0/L0"), ax2.set_ylabel("H_f/L0"), ax2.legend(fontsize=7)
@@ -216,8 +246,18 @@ if __name__ == "__main__":
     if kind == "fraction":
         fraction_plot(Path(sys.argv[2]), [Path(a) for a in sys.argv[3:]])
     elif kind == "laws":
-        laws_plot(Path(sys.argv[2]), math.inf if sys.argv[3] == "end" else float(sys.argv[3]),
-                  [(arg.split("=", 1)[0], Path(arg.split("=", 1)[1])) for arg in sys.argv[4:]])
+        out, when = Path(sys.argv[2]), math.inf if sys.argv[3] == "end" else float(sys.argv[3])
+        points = {}
+        for arg in sys.argv[4:]:
+            name, sweep_dir = arg.split("=", 1)
+            points[name] = law_points(name, Path(sweep_dir), when)
+        with out.with_suffix(".csv").open("w", newline="") as f:   # the points beside the plot
+            writer = csv.DictWriter(f, fieldnames=LAW_COLUMNS)
+            writer.writeheader()
+            writer.writerows(r for rows in points.values() for r in rows)
+        laws_plot(out, when, points)
+    elif kind == "table":
+        laws_plot(Path(sys.argv[2]), math.inf, read_law_table(Path(sys.argv[3])))
     else:
         src, dst = Path(sys.argv[2]), Path(sys.argv[3])
         if kind == "front":
