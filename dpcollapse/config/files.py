@@ -189,6 +189,7 @@ LEGACY_DEFAULTS = {
     ("model", "yield_weighting"): "volume",       # default grains since 2026-12-04
     ("model", "grain_pressure"): "total",         # default effective since 2026-12-05
     ("model", "cut_cell_pressure"): "pointwise",  # default centroid since 2026-12-05
+    ("model", "inertia"): "velocity",             # default energy since 2026-12-05 (noon)
 }
 
 

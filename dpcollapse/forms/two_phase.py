@@ -295,3 +295,26 @@ def skew_convection(rho, u_iter, u, v, n, dx, ds_open):
     un = ufl.dot(u_iter, n)
     volume = 0.5 * rho * (ufl.inner(ufl.grad(u) * u_iter, v) - ufl.inner(ufl.grad(v) * u_iter, u)) * dx
     return volume + 0.5 * rho * _positive(un) * ufl.inner(u, v) * ds_open
+
+
+#: the densities of the time derivative (``model.inertia``)
+INERTIAS = ("velocity", "energy")
+
+
+def previous_momentum(rho, rho_previous, dt, u_old, v, dx, kind: str = "velocity"):
+    """The explicit half of the time derivative, its implicit half ∫ ρ(cⁿ) u^{n+1}/Δt · v::
+
+        velocity   ∫ ρ(cⁿ) uⁿ/Δt · v               ρⁿ (u^{n+1} − uⁿ)/Δt
+        energy     ∫ √(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ/Δt · v     (ρⁿ u^{n+1} − √(ρⁿ ρⁿ⁻¹) uⁿ)/Δt
+
+    ``energy`` is Guermond & Quartapelle's (2000) σ(σu)_t with σ = √ρ, = ρ u_t + ½ (∂ρ/∂t) u.
+    The skew-symmetric convection (``skew_convection``) is ρ (u·∇)u + ½ ∇·(ρu) u, and with
+    ∂ρ/∂t + ∇·(ρu) = 0 its added half is −½ (∂ρ/∂t) u: under ``velocity`` it stays in the
+    equation as a force ½ (∂ρ/∂t) u, along u where the grains arrive (a front running into
+    the light fluid: ∂ρ/∂t ~ [ρ] |u|/ΔX, a one-cell tongue driven the harder the finer the
+    cells). ``energy`` cancels it, and tested with u^{n+1} the two halves give
+    ½ ρⁿ|u^{n+1}|² − ½ ρⁿ⁻¹|uⁿ|² + ½ |σⁿu^{n+1} − σⁿ⁻¹uⁿ|²: the kinetic energy
+    ½ ∫ ρ(cⁿ⁻¹)|uⁿ|² of the previous step telescopes, whatever c's transport does."""
+    kind = _one_of(kind, INERTIAS, "inertia")
+    weight = rho if kind == "velocity" else ufl.sqrt(rho * rho_previous)
+    return weight / dt * ufl.inner(u_old, v) * dx

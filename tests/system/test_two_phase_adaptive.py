@@ -26,12 +26,17 @@ def _remesh_log(events: Events) -> list:
     return infos
 
 
+#: to t = 0.2 s: with the energy-consistent inertia (the default since 2026-12-05) the front
+#: leaves the first mesh's fine band at t ≈ 0.15 s (measured: one remesh by 0.2 s, none by 0.12 s)
+LONGER = ["time.end_time=0.2", "time.output_every=25"]
+
+
 def test_adaptive_run_matches_the_uniform_run_within_a_cell(tmp_path):
     events = Events()
     remeshes = _remesh_log(events)
-    adaptive = simulation(CONFIG, ADAPTIVE, tmp_path / "adaptive", comm=MPI.COMM_SELF,
+    adaptive = simulation(CONFIG, ADAPTIVE + LONGER, tmp_path / "adaptive", comm=MPI.COMM_SELF,
                           events=events).run()
-    uniform = simulation(CONFIG, SMALL + [f"model.max_cell={FINE}"], tmp_path / "uniform",
+    uniform = simulation(CONFIG, SMALL + LONGER + [f"model.max_cell={FINE}"], tmp_path / "uniform",
                          comm=MPI.COMM_SELF).run()
     assert adaptive["remeshes"] >= 1 and uniform["remeshes"] == 0
     assert len(remeshes) == adaptive["remeshes"]
@@ -46,7 +51,7 @@ def test_adaptive_run_matches_the_uniform_run_within_a_cell(tmp_path):
     summary, = paraview_summaries(tmp_path / "adaptive" / "solution.xdmf")
     cells = {snap["num_cells"] for snap in summary["snapshots"]}
     assert len(cells) >= 2 and "volume_fraction" in summary["cell_arrays"]
-    assert len(summary["times"]) == 4
+    assert len(summary["times"]) == 5
 
 
 @pytest.mark.mpi

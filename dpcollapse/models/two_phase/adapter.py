@@ -92,7 +92,7 @@ def make_flow(tagged: TaggedMesh, cfg, vessel: Container) -> TwoPhaseFlow:
                             rheology=law_from_material(cfg.material), boundaries=vessel.boundaries)
     light = LightFluid(model.air_density, model.air_viscosity, model.courant, model.compression,
                        model.grad_div, model.viscosity_average, model.yield_weighting,
-                       model.grain_pressure, model.cut_cell_pressure)
+                       model.grain_pressure, model.cut_cell_pressure, model.inertia)
     return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
 
 
@@ -183,6 +183,7 @@ class TwoPhaseDiscretization:
         c = self.fraction.c
         c.x.array[self._cells] = values
         c.x.scatter_forward()
+        self.fraction.forget_history()
         if self.layer:
             self.layer.set_initial()
 

@@ -28,6 +28,7 @@ from dpcollapse.forms.two_phase import (
     MixtureRheology,
     ambient_traction,
     cut_cell_pressure,
+    previous_momentum,
     grad_div,
     grain_pressure,
     mixture,
@@ -64,6 +65,11 @@ class LightFluid:
     yield_weighting: str = "grains"  # κ_mix = w(c) κ(p) (forms.two_phase.yield_weight)
     grain_pressure: str = "total"  # the p of κ(p), μ(I) and the bed friction (forms.two_phase)
     cut_cell_pressure: str = "pointwise"  # that p in a cut cell: pointwise or at its centroid
+    inertia: str = "energy"  # the time derivative's densities (forms.two_phase.previous_momentum)
+
+
+#: the snapshot field of cⁿ⁻¹ (``model.inertia: energy``)
+PREVIOUS_FRACTION = "volume_fraction_previous"
 
 
 class TwoPhaseFlow(RegularizedFlow):
@@ -145,6 +151,14 @@ class TwoPhaseFlow(RegularizedFlow):
         open_tags = self._tags_of(BoundaryKind.FREE_SURFACE, BoundaryKind.OUTFLOW)
         open_ds = sum((ds(t) for t in open_tags[1:]), ds(open_tags[0]))
         self.terms["convection"] = skew_convection(rho, u_k, u, v, n, dx, open_ds)
+        # the time derivative's explicit half: ρ(cⁿ) uⁿ/Δt, or √(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ/Δt
+        # (model.inertia: energy; with the skew convection the consistent ρ Du/Dt)
+        if light.inertia != "velocity":
+            previous = self.fraction.previous
+            rho_previous = mixture(ufl.min_value(ufl.max_value(previous, 0.0), 1.0), p.density,
+                                   light.density)
+            self.rhs_terms["previous_velocity"] = previous_momentum(
+                rho, rho_previous, self.dt, self.u_old, v, dx, light.inertia)
         for b in p.of_kind(BoundaryKind.OUTFLOW):
             if self._has_tag(b.tag):   # σ n = −p_a n with the ambient p_a = ρ_a f·(x − x_ref)
                 self.rhs_terms[f"{b.name}_ambient"] = ambient_traction(
@@ -190,6 +204,7 @@ class TwoPhaseFlow(RegularizedFlow):
     def copy_state_from(self, other) -> None:
         super().copy_state_from(other)
         self.fraction.c.x.array[:] = other.fraction.c.x.array
+        self.fraction.previous.x.array[:] = other.fraction.previous.x.array
         self.fraction.outflow_volume = other.fraction.outflow_volume
         for name, tracer in self.tracers.items():
             tracer.c.x.array[:] = other.tracers[name].c.x.array
@@ -208,18 +223,28 @@ class TwoPhaseFlow(RegularizedFlow):
             local = CellwiseField(vertices=tri, points=tri,
                                   values=np.repeat(values[:, None], 3, axis=1), degree=1)
             fields[fraction.c.name] = concatenate(self.comm.allgather(local))
+        if self.light.inertia != "velocity":   # cⁿ⁻¹ of the time derivative's densities
+            values = self.fraction.previous.x.array[cells]
+            local = CellwiseField(vertices=tri, points=tri,
+                                  values=np.repeat(values[:, None], 3, axis=1), degree=1)
+            fields[PREVIOUS_FRACTION] = concatenate(self.comm.allgather(local))
         return fields
 
     def transfer(self, fields: dict) -> float:
         """The state of ``snapshot`` fields: u, p interpolated (``RegularizedFlow.transfer``);
         c and the tracers by the exact conservative remap of their cell values
         (``fraction.VolumeFraction.remap_from``: ∫ c kept to round-off)."""
-        names = {fraction.c.name for fraction in self._fractions()}
+        names = {fraction.c.name for fraction in self._fractions()} | {PREVIOUS_FRACTION}
         outside = super().transfer({k: v for k, v in fields.items() if k not in names})
         for fraction in self._fractions():
             field = fields.get(fraction.c.name)
             if field is not None:
                 fraction.remap_from(field.vertices, field.values[:, 0, 0])
+        field = fields.get(PREVIOUS_FRACTION)
+        if field is not None and self.light.inertia != "velocity":
+            self.fraction.remap_from(field.vertices, field.values[:, 0, 0], previous=True)
+        else:                       # a state without cⁿ⁻¹: the step starts without ∂ρ/∂t
+            self.fraction.forget_history()
         return outside
 
     def destroy(self) -> None:

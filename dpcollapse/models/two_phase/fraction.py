@@ -47,6 +47,7 @@ class VolumeFraction:
         self.courant, self.compression = courant, compression
         self.S0 = S0 = compat.scalar_space(mesh, 0, "DG")
         self.c = fem.Function(S0, name=name)                 # cⁿ (accepted)
+        self.previous = fem.Function(S0)                     # cⁿ⁻¹ (``forget_history``)
         self.work = fem.Function(S0)                         # c during the sub-steps
         self.pending = None                                  # c^{n+1} of a converged step
         self.substeps = 0                                    # of the last advance
@@ -104,14 +105,19 @@ class VolumeFraction:
         parts = self.comm.allgather((owned_triangles(self.mesh), self.owned_values()))
         return (np.concatenate([t for t, _ in parts]), np.concatenate([v for _, v in parts]))
 
-    def remap_from(self, triangles: np.ndarray, values: np.ndarray) -> None:
-        """cⁿ = the exact conservative remap (``remap``) of the cellwise ``values`` on the
-        ``triangles`` of another mesh of the same region (all of it, on every rank) onto the
-        owned cells; ghosts updated."""
+    def remap_from(self, triangles: np.ndarray, values: np.ndarray, previous: bool = False) -> None:
+        """cⁿ (``previous``: cⁿ⁻¹) = the exact conservative remap (``remap``) of the cellwise
+        ``values`` on the ``triangles`` of another mesh of the same region (all of it, on every
+        rank) onto the owned cells; ghosts updated."""
         n = compat.num_owned_cells(self.mesh)
-        self.c.x.array[compat.cell_dofs(self.S0)[:n, 0]] = remap(triangles, values,
+        target = self.previous if previous else self.c
+        target.x.array[compat.cell_dofs(self.S0)[:n, 0]] = remap(triangles, values,
                                                                  owned_triangles(self.mesh))
-        self.c.x.scatter_forward()
+        target.x.scatter_forward()
+
+    def forget_history(self) -> None:
+        """cⁿ⁻¹ = cⁿ: no change of c before this step (the start, or a state without it)."""
+        self.previous.x.array[:] = self.c.x.array
 
     def _assemble(self, form) -> np.ndarray:
         b = self._b
@@ -160,6 +166,7 @@ class VolumeFraction:
 
     def accept(self) -> None:
         if self.pending is not None:
+            self.previous.x.array[:] = self.c.x.array
             self.c.x.array[:] = self.pending
             self.outflow_volume += self.pending_outflow
             self.step_outflow = (self.pending_outflow, self._pending_dt)
