@@ -3,8 +3,11 @@
 (``forms.two_phase``), then the advection of c by the converged u^{n+1}
 (``fraction.VolumeFraction``, sub-cycled).
 
-    ρ(cⁿ) (u^{n+1} − uⁿ)/Δt + ρ(cⁿ) (u^{n+1,k}·∇) u^{n+1} − ∇·(S(cⁿ, u^{n+1,k}, p^{n+1,k}) D(u^{n+1}))
+    (ρ(cⁿ) u^{n+1} − √(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ)/Δt + ρ(cⁿ) (u^{n+1,k}·∇) u^{n+1} − ∇·(S(cⁿ, u^{n+1,k}, p^{n+1,k}) D(u^{n+1}))
         − ∇(γ S ∇·u^{n+1}) + ∇p^{n+1} = ρ(cⁿ) g,   ∇·u^{n+1} = 0;       then  c^{n+1} = A_Δt(cⁿ; u^{n+1})
+
+(``model.inertia: velocity``, the default before 2026-12-05: ρ(cⁿ) uⁿ/Δt in place of
+√(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ/Δt; ``forms.two_phase.previous_momentum``)
 
 with the grad-div term γ S ∇·u (``forms.two_phase.grad_div``, S the secant viscosity at
 the iterate), the convection in skew-symmetric form and the open top's backflow stabilization
@@ -28,10 +31,10 @@ from dpcollapse.forms.two_phase import (
     MixtureRheology,
     ambient_traction,
     cut_cell_pressure,
-    previous_momentum,
     grad_div,
     grain_pressure,
     mixture,
+    previous_momentum,
     skew_convection,
 )
 from dpcollapse.geometry.regions import cell_triangles
