@@ -221,16 +221,16 @@ class TwoPhaseFlow(RegularizedFlow):
         n = compat.num_owned_cells(mesh)
         tri = mesh.geometry.x[:, :2][compat.geometry_dofmap(mesh)[:n, :3]]
         cells = compat.cell_dofs(self.fraction.S0)[:n, 0]
+
+        def gathered(function) -> CellwiseField:   # its owned cells' values, on every rank
+            local = CellwiseField(vertices=tri, points=tri, degree=1,
+                                  values=np.repeat(function.x.array[cells][:, None], 3, axis=1))
+            return concatenate(self.comm.allgather(local))
+
         for fraction in self._fractions():
-            values = fraction.c.x.array[cells]
-            local = CellwiseField(vertices=tri, points=tri,
-                                  values=np.repeat(values[:, None], 3, axis=1), degree=1)
-            fields[fraction.c.name] = concatenate(self.comm.allgather(local))
+            fields[fraction.c.name] = gathered(fraction.c)
         if self.light.inertia != "velocity":   # cⁿ⁻¹ of the time derivative's densities
-            values = self.fraction.previous.x.array[cells]
-            local = CellwiseField(vertices=tri, points=tri,
-                                  values=np.repeat(values[:, None], 3, axis=1), degree=1)
-            fields[PREVIOUS_FRACTION] = concatenate(self.comm.allgather(local))
+            fields[PREVIOUS_FRACTION] = gathered(self.fraction.previous)
         return fields
 
     def transfer(self, fields: dict) -> float:
