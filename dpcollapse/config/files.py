@@ -190,6 +190,7 @@ LEGACY_DEFAULTS = {
     ("model", "grain_pressure"): "total",         # default effective since 2026-12-05
     ("model", "cut_cell_pressure"): "pointwise",  # default centroid since 2026-12-05
     ("model", "inertia"): "velocity",             # default energy since 2026-12-05 (noon)
+    ("model", "compression_direction"): "facet",  # default normal since 2026-12-05 (evening)
 }
 
 

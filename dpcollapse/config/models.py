@@ -149,6 +149,13 @@ class TwoPhaseModel(_Section):
     compression: Number = _f(
         1.0, "", "Interface compression: flux C |u.n| c_donor (1 - c_receiver) towards the fuller "
         "cell (0: plain upwind)", ge=0, le=2)
+    compression_direction: Literal["facet", "normal"] = _f(
+        "normal", "", "Where the interface compression acts: normal (the default since 2026-12-05: "
+        "each facet's flux weighted by |n_i . n_f|, n_i the interface normal from the gradient "
+        "of c averaged to the vertices: across the interface, as OpenFOAM's compression velocity "
+        "along grad c) or facet (the default before: across every facet with a jump of c, also "
+        "along a thin layer, whose leading cells it pulls back into the fuller ones behind: "
+        "fronts 10-25 % short; docs/benchmarks/2026-12-05-two-phase-compression.md)")
     fraction_threshold: Number = _f(
         0.5, "", "A cell with c above this counts as granular (mass front, max speed)", gt=0, lt=1)
     grad_div: Number = _f(

@@ -246,22 +246,39 @@ def cut_cell_pressure(p, c, centroid, mesh, kind: str = "pointwise"):
     return ufl.conditional(cut, at_centroid, p)
 
 
-def compression_flux(c, u, v, n, dS, coefficient):
-    """∫ C |u·n| φ (v⁺ − v⁻) dS, the interface compression: across a facet the flux from the
+def interface_alignment(gradient, n):
+    """|ĝ·n⁺| on an interior facet, ĝ = avg(∇c̄)/|avg(∇c̄)| the interface normal from the
+    gradient of c̄ (the volume fraction averaged to the vertices, P1): 1 on a facet parallel
+    to the interface, 0 on a facet across it (along a layer), 0 where c̄ is flat."""
+    g = ufl.avg(gradient)
+    size = ufl.sqrt(ufl.dot(g, g))
+    return ufl.conditional(ufl.gt(size, 1e-12), abs(ufl.dot(g, n('+'))) / (size + 1e-300), 0.0)
+
+
+def compression_flux(c, u, v, n, dS, coefficient, gradient=None):
+    """∫ C |u·n| a φ (v⁺ − v⁻) dS, the interface compression: across a facet the flux from the
     emptier cell to the fuller one, φ = c⁺ (1 − c⁻) when c⁻ > c⁺, −c⁻ (1 − c⁺) when c⁺ > c⁻
-    (a donor gives at most what it holds, a receiver takes at most its room)."""
+    (a donor gives at most what it holds, a receiver takes at most its room). a = 1
+    (``model.compression_direction: facet``: across every facet with a jump of c), or with
+    ``gradient`` = ∇c̄ the facet's alignment with the interface normal (``normal``:
+    ``interface_alignment``; OpenFOAM's compression velocity along ∇c, not along a layer)."""
     un = abs(ufl.dot(u('+'), n('+')))
+    if gradient is not None:
+        un = un * interface_alignment(gradient, n)
     phi = ufl.conditional(ufl.gt(c('-'), c('+')), c('+') * (1.0 - c('-')),
                           -c('-') * (1.0 - c('+')))
     return coefficient * un * phi * (v('+') - v('-')) * dS
 
 
-def compression_weights(c, u, v, n, dS):
-    """∫ |u·n| (c⁻ v⁺ − c⁺ v⁻) dS with c the DG0 trial function: the matrix whose entry of
-    a facet's cells (K⁺, K⁻) is +∫_f |u·n| ds and of (K⁻, K⁺) its negative — the weight of
-    ``compression_flux`` on that facet and, by its sign, the facet's orientation (which cell
-    is '+'), so the flux can be evaluated cell pair by cell pair without reassembly."""
+def compression_weights(c, u, v, n, dS, gradient=None):
+    """∫ |u·n| a (c⁻ v⁺ − c⁺ v⁻) dS with c the DG0 trial function: the matrix whose entry of
+    a facet's cells (K⁺, K⁻) is +∫_f |u·n| a ds and of (K⁻, K⁺) its negative — the weight of
+    ``compression_flux`` on that facet (a as there) and, by its sign, the facet's orientation
+    (which cell is '+'), so the flux can be evaluated cell pair by cell pair without
+    reassembly. (A facet of weight 0 — a = 0 — carries no compression either way.)"""
     un = abs(ufl.dot(u('+'), n('+')))
+    if gradient is not None:
+        un = un * interface_alignment(gradient, n)
     return un * (c('-') * v('+') - c('+') * v('-')) * dS
 
 

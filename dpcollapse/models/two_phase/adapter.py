@@ -92,7 +92,8 @@ def make_flow(tagged: TaggedMesh, cfg, vessel: Container) -> TwoPhaseFlow:
                             rheology=law_from_material(cfg.material), boundaries=vessel.boundaries)
     light = LightFluid(model.air_density, model.air_viscosity, model.courant, model.compression,
                        model.grad_div, model.viscosity_average, model.yield_weighting,
-                       model.grain_pressure, model.cut_cell_pressure, model.inertia)
+                       model.grain_pressure, model.cut_cell_pressure, model.inertia,
+                       model.compression_direction)
     return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
 
 

@@ -69,6 +69,7 @@ class LightFluid:
     grain_pressure: str = "total"  # the p of κ(p), μ(I) and the bed friction (forms.two_phase)
     cut_cell_pressure: str = "pointwise"  # that p in a cut cell: pointwise or at its centroid
     inertia: str = "energy"  # the time derivative's densities (forms.two_phase.previous_momentum)
+    compression_direction: str = "normal"  # of the interface compression: normal or facet
 
 
 #: the snapshot field of cⁿ⁻¹ (``model.inertia: energy``)
@@ -114,7 +115,8 @@ class TwoPhaseFlow(RegularizedFlow):
 
     def add_tracer(self, name: str) -> VolumeFraction:
         """A DG0 fraction named ``name`` advected with c (same scheme, same sub-steps)."""
-        tracer = VolumeFraction(self.mesh, self.light.courant, self.light.compression, name=name)
+        tracer = VolumeFraction(self.mesh, self.light.courant, self.light.compression, name=name,
+                                direction=self.light.compression_direction)
         tracer.bind(ufl.split(self.solution)[0])
         self.tracers[name] = tracer
         return tracer
@@ -123,7 +125,8 @@ class TwoPhaseFlow(RegularizedFlow):
     def _build_forms(self) -> None:
         mesh, p, light = self.mesh, self.params, self.light
         self.surface_gamma = None   # no surface tension: the surface is not a boundary here
-        self.fraction = VolumeFraction(mesh, light.courant, light.compression)
+        self.fraction = VolumeFraction(mesh, light.courant, light.compression,
+                                       direction=light.compression_direction)
         c = self.fraction.c
         clamped = ufl.min_value(ufl.max_value(c, 0.0), 1.0)
         (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)

@@ -42,9 +42,12 @@ class VolumeFraction:
     """c on DG0 and its advection by a velocity given by ``bind(u)`` (a UFL vector on the same
     mesh; the flow's forms need c before its velocity exists)."""
 
-    def __init__(self, mesh, courant: float, compression: float, name: str = "volume_fraction"):
+    def __init__(self, mesh, courant: float, compression: float, name: str = "volume_fraction",
+                 direction: str = "normal"):
         self.mesh, self.comm = mesh, mesh.comm
         self.courant, self.compression = courant, compression
+        self.direction = direction   # of the compression: "facet" or "normal" (to the interface)
+        self._vertex = None          # c̄: c averaged to the vertices (P1), for "normal"
         self.S0 = S0 = compat.scalar_space(mesh, 0, "DG")
         self.c = fem.Function(S0, name=name)                 # cⁿ (accepted)
         self.previous = fem.Function(S0)                     # cⁿ⁻¹ (``forget_history``)
@@ -74,8 +77,13 @@ class VolumeFraction:
         v, trial = ufl.TestFunction(self.S0), ufl.TrialFunction(self.S0)
         n = ufl.FacetNormal(mesh)
         dS, ds = ufl.dS(domain=mesh), ufl.ds(domain=mesh)
+        gradient = None
+        if self.direction == "normal" and C > 0:
+            if self._vertex is None:
+                self._vertex = _VertexAverage(self.c)
+            gradient = ufl.grad(self._vertex.function)
         self._fluxes = StepFluxes(fem.form(fraction_flux(trial, u, v, n, dS, ds)),
-                                  fem.form(compression_weights(trial, u, v, n, dS)),
+                                  fem.form(compression_weights(trial, u, v, n, dS, gradient)),
                                   self.S0.dofmap.index_map, C)
         self._rate = fem.form(outflow_rate(u, v, n, dS, ds, C))
         self._divergence = fem.form(ufl.div(u) * v * ufl.dx(domain=mesh))
@@ -149,6 +157,8 @@ class VolumeFraction:
             steps = max(1, math.ceil(dt * rate / self.courant - 1e-12)) if rate > 0 else 1
         h = dt / steps
         self.work.x.array[:] = self.c.x.array
+        if self._vertex is not None:
+            self._vertex.update()       # the interface normal of cⁿ, fixed over the sub-steps
         self._fluxes.assemble()
         weights = None if self._outflow is None else self._assemble(self._outflow).copy()
         out = 0.0
@@ -187,7 +197,42 @@ class VolumeFraction:
         return self.comm.allreduce(lo, op=MPI.MIN), self.comm.allreduce(hi, op=MPI.MAX)
 
     def destroy(self) -> None:
+        if self._vertex is not None:
+            self._vertex.destroy()
         if self._b is not None:
             self._b.destroy()
         if self._fluxes is not None:
             self._fluxes.destroy()
+
+
+class _VertexAverage:
+    """c̄ ∈ P1 with c̄_i = ∫ c φ_i dx / ∫ φ_i dx (the lumped L2 projection of the DG0 ``fraction``):
+    the vertex values whose gradient gives the interface normal of ``compression_direction:
+    normal``."""
+
+    def __init__(self, fraction):
+        mesh = fraction.function_space.mesh
+        self.fraction = fraction
+        self.function = fem.Function(compat.scalar_space(mesh, 1))
+        phi = ufl.TestFunction(self.function.function_space)
+        self._form = fem.form(fraction * phi * ufl.dx(domain=mesh))
+        lumped = fem.form(phi * ufl.dx(domain=mesh))
+        self._b = compat.create_vector(self._form)
+        weight = compat.create_vector(lumped)
+        fem_petsc.assemble_vector(weight, lumped)
+        weight.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self._n = self.function.function_space.dofmap.index_map.size_local
+        self._weight = weight.array_r[:self._n].copy()
+        weight.destroy()
+
+    def update(self) -> None:
+        b = self._b
+        with b.localForm() as loc:
+            loc.set(0.0)
+        fem_petsc.assemble_vector(b, self._form)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self.function.x.array[:self._n] = b.array_r[:self._n] / self._weight
+        self.function.x.scatter_forward()
+
+    def destroy(self) -> None:
+        self._b.destroy()
