@@ -14,7 +14,8 @@ The flow terms are those of ``forms.picard`` with ρ(c) and the mixture law. The
 fraction is advanced explicitly by a finite-volume scheme: for each cell K,
 c_K ← c_K − Δt/|K| ∫_∂K F ds, with the upwind flux F = (u·n)⁺ c_K − (u·n)⁻ c_nb across each
 facet (outflow only at the boundary: the light fluid enters) and an interface-compression
-flux towards the fuller cell, C |u·n| c_donor (1 − c_receiver) (``compression_flux``).
+flux towards the fuller cell, C |u·n| a_f c_donor (1 − c_receiver), a_f the facet's alignment
+with the interface normal (``compression_flux``, ``interface_alignment``).
 Each flux is single-valued on a facet, so Σ_K |K| c_K changes only by the boundary outflow.
 """
 

@@ -6,7 +6,9 @@ advected with the sub-step count of c.
 * ``VolumeFraction``: c, and ``advance(dt)``: N sub-steps of
   c_K ← c_K − (Δt/N)/|K| ∫_∂K (F_upwind + F_compression) ds, with N the smallest count such
   that (Δt/N) max_K ∫_∂K ((u·n)⁺ + C|u·n|) ds / |K| ≤ the Courant number. The fluxes' matrices
-  are assembled once per step and each sub-step is a sparse product (``fluxes``). Under MPI
+  are assembled once per step and each sub-step is a sparse product (``fluxes``); with
+  ``direction`` "normal" the compression's facet weights carry |n̂·n|, n̂ from the gradient of
+  c averaged to the vertices at the start of the step (``_VertexAverage``). Under MPI
   the ghost values of c are updated by a forward scatter after every sub-step.
 """
 
