@@ -199,8 +199,6 @@ class VolumeFraction:
         return self.comm.allreduce(lo, op=MPI.MIN), self.comm.allreduce(hi, op=MPI.MAX)
 
     def destroy(self) -> None:
-        if self._vertex is not None:
-            self._vertex.destroy()
         if self._b is not None:
             self._b.destroy()
         if self._fluxes is not None:
@@ -214,27 +212,23 @@ class _VertexAverage:
 
     def __init__(self, fraction):
         mesh = fraction.function_space.mesh
-        self.fraction = fraction
         self.function = fem.Function(compat.scalar_space(mesh, 1))
         phi = ufl.TestFunction(self.function.function_space)
-        self._form = fem.form(fraction * phi * ufl.dx(domain=mesh))
-        lumped = fem.form(phi * ufl.dx(domain=mesh))
-        self._b = compat.create_vector(self._form)
-        weight = compat.create_vector(lumped)
-        fem_petsc.assemble_vector(weight, lumped)
-        weight.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self._n = self.function.function_space.dofmap.index_map.size_local
-        self._weight = weight.array_r[:self._n].copy()
-        weight.destroy()
+        self._form = fem.form(phi * ufl.dx(domain=mesh))
+        self._assemble()
+        self._weight = self.function.x.array[:self._n].copy()     # ∫ φ_i dx
+        self._form = fem.form(fraction * phi * ufl.dx(domain=mesh))
+
+    def _assemble(self) -> None:
+        """The form into the function's owned values (contributions of other ranks added)."""
+        vec = compat.petsc_vec(self.function)
+        with vec.localForm() as loc:
+            loc.set(0.0)
+        fem_petsc.assemble_vector(vec, self._form)
+        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
 
     def update(self) -> None:
-        b = self._b
-        with b.localForm() as loc:
-            loc.set(0.0)
-        fem_petsc.assemble_vector(b, self._form)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        self.function.x.array[:self._n] = b.array_r[:self._n] / self._weight
+        self._assemble()
+        self.function.x.array[:self._n] /= self._weight
         self.function.x.scatter_forward()
-
-    def destroy(self) -> None:
-        self._b.destroy()
