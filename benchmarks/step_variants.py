@@ -18,8 +18,12 @@ change to the step control, made here by replacing one method for this process o
                    made without error control; a retry cannot reduce that part)
     speed-floor    the fixed point's absolute floor follows the flow: atol = min(0.3 tol,
                    0.03 max(time.rest_speed, max|uⁿ|/10)) instead of min(0.3 tol, 0.03 rest_speed)
+    hybrid         the PI controller while e_n ≥ tol/2, the elementary one below (the PI's
+                   (e_{n−1}/tol)^{0.4/k} holds the growth at ~1.13 per step while e_n ≈ e_{n−1} ≪ tol,
+                   e.g. for ~40 steps after a landing)
 
-The measured numbers: ``docs/benchmarks/2026-12-04-rigid-step-variants.md``.
+The measured numbers: ``docs/benchmarks/2026-12-04-rigid-step-variants.md`` (``hybrid``:
+``docs/benchmarks/2026-12-05-rigid-iterate-cost.md``).
 """
 
 from __future__ import annotations
@@ -31,13 +35,26 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-VARIANTS = ("base", "elementary", "displacement", "first-estimate", "speed-floor")
+VARIANTS = ("base", "elementary", "displacement", "first-estimate", "speed-floor", "hybrid")
 
 
 def _elementary(sc) -> None:
     def next_step(self, dt, error):
         if error is None:
             return dt
+        error = max(error, 1e-12 * self.tolerance)
+        self.previous_error = error
+        factor = sc.SAFETY * (self.tolerance / error) ** (1.0 / sc.ORDER)
+        return dt * min(sc.GROW, max(sc.SHRINK, factor))
+    sc.StepController.next_step = next_step
+
+
+def _hybrid(sc) -> None:
+    pi = sc.StepController.next_step
+
+    def next_step(self, dt, error):
+        if error is None or error >= 0.5 * self.tolerance:
+            return pi(self, dt, error)
         error = max(error, 1e-12 * self.tolerance)
         self.previous_error = error
         factor = sc.SAFETY * (self.tolerance / error) ** (1.0 / sc.ORDER)
@@ -102,6 +119,8 @@ def main(argv=None) -> None:
         _displacement(sc, state)
     elif args.variant == "first-estimate":
         _first_estimate(sc, state)
+    elif args.variant == "hybrid":
+        _hybrid(sc)
     elif args.variant == "speed-floor":
         _speed_floor(regularized, cfg)
     simulation.run_simulation(cfg, args.run_dir, quiet=True)

@@ -121,7 +121,8 @@ class NumericsConfig(_Section):
         "mumps", "", "Flow solver: direct LU (mumps, superlu_dist) or iterative (FGMRES, Schur "
         "fieldsplit, AMG velocity block; regularized method, not on a periodic layer)")
     krylov_rtol: Number = _f(
-        1.0e-10, "", "linear_solver iterative: relative residual of the FGMRES solve", gt=0, lt=1)
+        1.0e-10, "", "linear_solver iterative: relative residual of the FGMRES solve; with "
+        "reuse_factorization, of the GMRES solve on the stale factorization", gt=0, lt=1)
     krylov_max_iterations: Count = _f(
         500, "", "linear_solver iterative: most FGMRES iterations per solve (more: the step "
         "is retried with half the time step)", ge=1)

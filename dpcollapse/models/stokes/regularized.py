@@ -50,7 +50,7 @@ class PicardSettings:
     reuse_factorization: bool = False  # one LU per step; later iterates: GMRES + stale LU
     quadrature_degree: int | None = None  # of the nonlinear terms; None: UFL's estimate
     extrapolate: bool = False  # first iterate extrapolated linearly from the last two steps
-    krylov_rtol: float = 1e-10  # linear_solver iterative: relative residual of FGMRES
+    krylov_rtol: float = 1e-10  # relative residual of FGMRES (iterative) or GMRES (reuse_factorization)
     krylov_max_iterations: int = 500
     time_scheme: str = "bdf1"  # time.scheme: bdf1 or bdf2 (solvers.bdf)
     fixed_iterations: int | None = None  # accept the step after this many iterates (None: converge)
@@ -141,7 +141,8 @@ class RegularizedFlow(StokesState):
         if s.linear_solver == "iterative":
             return self.iterative_solver(s.krylov_rtol, s.krylov_max_iterations)
         return DirectSolver(self.comm, s.linear_solver, prefix="dpc_flow_",
-                            krylov=s.reuse_factorization, symmetric=s.convection == "lagged")
+                            krylov=s.reuse_factorization, rtol=s.krylov_rtol,
+                            symmetric=s.convection == "lagged")
 
     def iterative_solver(self, rtol: float, max_iterations: int,
                          prefix: str = "dpc_flow_") -> BlockSolver:
