@@ -46,26 +46,18 @@ def _timed(fn, repeat: int) -> float:
 
 
 def _factor(A, kind: str, ordering: int | None, prefix: str):
-    """A KSP (preonly) with MUMPS LDLᵀ (``cholesky``) or LU of ``A``, set up once."""
+    """The solver's ``DirectSolver`` (MUMPS LDLᵀ for ``cholesky``, else LU) on ``A``, factorized
+    once; ``ordering``: MUMPS ICNTL(7) (None: its automatic choice)."""
     from petsc4py import PETSc
 
-    opts = PETSc.Options()
-    opts[f"{prefix}mat_mumps_icntl_14"] = 200   # as solvers.linear
-    opts[f"{prefix}mat_mumps_icntl_24"] = 0
-    if ordering is not None:
-        opts[f"{prefix}mat_mumps_icntl_7"] = ordering
-    ksp = PETSc.KSP().create(A.getComm())
-    ksp.setOptionsPrefix(prefix)
-    ksp.setType("preonly")
-    pc = ksp.getPC()
-    pc.setType(kind)
-    pc.setFactorSolverType("mumps")
-    ksp.setFromOptions()
-    if kind == "cholesky":
-        A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-    ksp.setOperators(A)
-    ksp.setUp()
-    return ksp
+    from dpcollapse.solvers.linear import DirectSolver
+
+    if ordering is not None:   # read by the solver's setFromOptions
+        PETSc.Options()[f"{prefix}mat_mumps_icntl_7"] = ordering
+    solver = DirectSolver(A.getComm(), "mumps", prefix=prefix, symmetric=kind == "cholesky")
+    solver.set_operator(A)
+    solver.ksp.setUp()
+    return solver.ksp
 
 
 def measure(flow, repeat: int) -> None:

@@ -38,14 +38,17 @@ ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ("base", "elementary", "displacement", "first-estimate", "speed-floor", "hybrid")
 
 
+def _elementary_step(sc, controller, dt, error):
+    """Δt · SAFETY (tol/e)^{1/k}, bounded as the PI step (``error`` not None)."""
+    error = max(error, 1e-12 * controller.tolerance)
+    controller.previous_error = error
+    factor = sc.SAFETY * (controller.tolerance / error) ** (1.0 / sc.ORDER)
+    return dt * min(sc.GROW, max(sc.SHRINK, factor))
+
+
 def _elementary(sc) -> None:
     def next_step(self, dt, error):
-        if error is None:
-            return dt
-        error = max(error, 1e-12 * self.tolerance)
-        self.previous_error = error
-        factor = sc.SAFETY * (self.tolerance / error) ** (1.0 / sc.ORDER)
-        return dt * min(sc.GROW, max(sc.SHRINK, factor))
+        return dt if error is None else _elementary_step(sc, self, dt, error)
     sc.StepController.next_step = next_step
 
 
@@ -55,10 +58,7 @@ def _hybrid(sc) -> None:
     def next_step(self, dt, error):
         if error is None or error >= 0.5 * self.tolerance:
             return pi(self, dt, error)
-        error = max(error, 1e-12 * self.tolerance)
-        self.previous_error = error
-        factor = sc.SAFETY * (self.tolerance / error) ** (1.0 / sc.ORDER)
-        return dt * min(sc.GROW, max(sc.SHRINK, factor))
+        return _elementary_step(sc, self, dt, error)
     sc.StepController.next_step = next_step
 
 
