@@ -29,7 +29,7 @@ from dpcollapse.errors import (  # noqa: E402
     Interrupted,
     OutputError,
 )
-from dpcollapse import parallel  # noqa: E402
+from dpcollapse import parallel, signals  # noqa: E402
 from dpcollapse.parallel import PeerFailed, end_together, install_excepthook  # noqa: E402
 
 try:  # an editable install made before dpcollapse/__init__.py existed sees a namespace package
@@ -111,7 +111,7 @@ class _Group(click.Group):
             where = f" ({exc.filename})" if exc.filename else ""
             raise OutputError(f"I/O failure: {exc.strerror or exc}{where}") from None
         except Exception as exc:
-            if _signalled:   # e.g. "ImportError: initialization failed": SIGTERM hit an import
+            if signals.received():   # e.g. "ImportError: initialization failed": SIGTERM hit an import
                 raise Interrupted("interrupted") from None
             log = _write_traceback()
             raise InternalError(f"internal error: {type(exc).__name__}: {exc} (a bug; traceback "
@@ -195,7 +195,7 @@ def run(config: Path, overrides: tuple[str, ...], out: str | None, quiet: bool,
     from dpcollapse.config import config_to_dict
     from dpcollapse.io.rundir import claim_on_root
 
-    _interrupt_on_signals()   # again: Open MPI 5's MPI_Init resets SIGINT to its default
+    signals.install()   # again: Open MPI 5's MPI_Init resets SIGINT to its default
 
     run_dir = cfg.output.directory if out is None else out
     mode = "resume" if resume else "overwrite" if overwrite else "new"
@@ -547,72 +547,10 @@ def main(argv: list[str] | None = None) -> int:
     return rv if isinstance(rv, int) else 0
 
 
-#: Set once SIGINT/SIGTERM arrived: an error after it is the interrupt's (a C extension's
-#: import interrupted by the signal fails with "ImportError: initialization failed").
-_signalled = False
-
-
-#: Python packages whose code C/C++ calls back into (DOLFINx's wrappers around nanobind
-#: calls that take Python callables, its JIT through FFCx and cffi, PETSc, gmsh): an
-#: exception raised there unwinds through C++ frames (seen on the pip path's DOLFINx 0.11:
-#: "double free or corruption", SIGSEGV, with SIGTERM 1 s into the set-up).
-_CALLBACK_PACKAGES = ("dolfinx", "basix", "ffcx", "ufl", "cffi", "petsc4py", "gmsh",
-                      "setuptools", "distutils")
-
-
-def _importing(frame) -> bool:
-    """Whether ``frame`` runs inside an import (any frame of its chain is the import
-    machinery's: also the Python code that a C extension's initialization calls) or inside
-    a library's Python code that C/C++ may have called (``_CALLBACK_PACKAGES``)."""
-    while frame is not None:
-        name = frame.f_code.co_filename
-        if name.startswith("<frozen importlib"):
-            return True
-        if str(frame.f_globals.get("__name__", "")).partition(".")[0] in _CALLBACK_PACKAGES:
-            return True
-        frame = frame.f_back
-    return False
-
-
-def _interrupt(signum, frame):
-    global _signalled
-    _signalled = True
-    if _importing(frame):
-        # Not during an import: inside the import machinery's module locks an exception is
-        # printed as a traceback, and inside a nanobind module's initialization (DOLFINx
-        # >= 0.9 builds its enums by calling Python's enum module) it becomes a C++
-        # nanobind::python_error that ends in std::terminate (SIGABRT); nor inside the
-        # libraries' code (``_CALLBACK_PACKAGES``). Deliver the signal again a moment
-        # later, until it arrives in our own code.
-        import signal
-        import threading
-
-        threading.Timer(0.01, signal.raise_signal, (signum,)).start()
-        return
-    raise KeyboardInterrupt
-
-
-def _interrupt_on_signals() -> None:
-    """SIGINT and SIGTERM raise KeyboardInterrupt (exit 130 with one line).
-
-    PETSc installs its own handler for them at its initialization (inside ``import
-    dolfinx``), which prints "Caught signal number 15" and aborts with MPI_Abort (exit 15
-    or 59): ``-no_signal_handler`` in ``PETSC_OPTIONS`` (read by PetscInitialize) leaves
-    ours in place (seen on the pip path's PETSc wheel: tests/system/test_faults.py)."""
-    import os
-    import signal
-
-    options = os.environ.get("PETSC_OPTIONS", "")
-    if "-no_signal_handler" not in options.split():
-        os.environ["PETSC_OPTIONS"] = f"{options} -no_signal_handler".strip()
-    signal.signal(signal.SIGINT, _interrupt)
-    signal.signal(signal.SIGTERM, _interrupt)
-
-
 def entry() -> None:
     """Console script ``dpcollapse``: SIGTERM is an interrupt from the start (exit 130 with
     one line, also while the run is being set up), as Ctrl-C is."""
-    _interrupt_on_signals()
+    signals.install()
     install_excepthook()
     code = main()
     xdmf = sys.modules.get("dpcollapse.io.xdmf")

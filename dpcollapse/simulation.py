@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from dpcollapse import compat, parallel
+from dpcollapse import compat, parallel, signals
 from dpcollapse.config import Config, config_to_dict, save_config
 from dpcollapse.errors import ConfigError, ConvergenceError, Interrupted, MeshError
 from dpcollapse.geometry.mesher import TaggedMesh
@@ -114,10 +114,12 @@ class Progress:
 
 class _StopRequest:
     """SIGINT/SIGTERM during the loop: the first asks the loop to stop after the step in
-    progress (so the checkpoint holds the last accepted step); a second stops at once."""
+    progress (so the checkpoint holds the last accepted step); a second stops at once.
+    A signal that came during the set-up and whose KeyboardInterrupt was lost
+    (:mod:`dpcollapse.signals`) counts as the first."""
 
     def __init__(self):
-        self.signal: int | None = None
+        self.signal: int | None = signal.SIGTERM if signals.received() else None
 
     def __call__(self, signum, frame):
         if self.signal is not None:
