@@ -38,7 +38,7 @@ class MeshMotion:
         surface = [b.tag for b in flow.params.of_kind(BoundaryKind.FREE_SURFACE)]
         ds_surface = sum((ds(tag) for tag in surface[1:]), ds(surface[0]))
         # the velocity the boundary follows: uⁿ, or the extrapolated u* of time.scheme bdf2
-        source = getattr(flow, "motion_source", flow.u_old)
+        source = flow.motion_source
         a, L = mesh_velocity_forms(ufl.TrialFunction(Vw), ufl.TestFunction(Vw), source,
                                    fem.Constant(mesh, compat.ScalarType(penalty)), ds_surface)
         self.system = LinearSystem(a, L, self._slip_bcs(Vw), homogeneous=True)
@@ -86,8 +86,7 @@ class MeshMotion:
         the nodes moved by Δt/2·w, w solved again there with the same u*, the nodes put back
         (the extension depends on the mesh through its normals and h: w on Ωⁿ alone would
         leave a first-order error)."""
-        prepare = getattr(self.flow, "prepare_motion", None)
-        midpoint = bool(prepare(dt)) if prepare is not None else False
+        midpoint = bool(self.flow.prepare_motion(dt))
         self._solve()
         if midpoint:
             x = self.mesh.geometry.x

@@ -8,11 +8,24 @@ from typing import Protocol
 
 class Domain(Protocol):
     """limit Δt, move, undo, remesh; ``moving`` says whether the mesh follows the material
-    (then the energy balance of a closed mass applies)."""
+    (then the energy balance of a closed mass applies: ``check_step``). Its named events
+    (``counted_events``, ``take_events``) are those of ``loop.EventSource``."""
 
     moving: bool
     #: mesh-velocity solves so far
     solves: int
+    #: the events it reports (the moving domain: ``landings``)
+    counted_events: tuple[str, ...]
+
+    def take_events(self) -> dict[str, int]:
+        """Counts of its events since the last call, of accepted moves only."""
+
+    def check_step(self, measures: dict, state) -> None:
+        """Its check of an accepted step from the model's ``measures`` and the ``loop.LoopState``
+        (the moving domain: the energy balance); MeshError when it fails."""
+
+    def counters(self) -> dict[str, int]:
+        """Its run.json entries (the moving domain: ``mesh_velocity_factorizations``)."""
 
     def limit_step(self, disc, dt: float) -> float:
         """The largest step ≤ ``dt`` the domain allows from the accepted state (inf: none)."""
@@ -20,13 +33,13 @@ class Domain(Protocol):
     def recompute(self, disc, dt: float | None = None) -> None:
         """Redo what ``limit_step`` prepared, for a retried (shorter) step."""
 
-    def move(self, disc, dt: float) -> tuple[object, object, int]:
+    def move(self, disc, dt: float) -> tuple[object, object]:
         """Move the mesh over ``dt``: (what ``undo`` needs, the mesh with new facet tags when
         the move changed a boundary's extent (the moving domain: front nodes that landed on
-        the bed) else None, the number of nodes that changed boundary)."""
+        the bed) else None)."""
 
     def undo(self, disc, token) -> None:
-        """Take back ``move``."""
+        """Take back ``move`` (and the events it would have reported)."""
 
     def needs_remesh(self, disc, state) -> str | None:
         """Why the mesh must be rebuilt now, or None."""

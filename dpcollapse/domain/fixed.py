@@ -7,6 +7,7 @@ import math
 
 class FixedDomain:
     moving = False
+    counted_events: tuple[str, ...] = ()
 
     def __init__(self):
         self.solves = 0
@@ -17,8 +18,18 @@ class FixedDomain:
     def recompute(self, disc, dt: float | None = None) -> None:
         pass
 
-    def move(self, disc, dt: float) -> tuple[None, None, int]:
-        return None, None, 0
+    def move(self, disc, dt: float) -> tuple[None, None]:
+        return None, None
+
+    def take_events(self) -> dict[str, int]:
+        return {}
+
+    def check_step(self, measures: dict, state) -> None:
+        """No check: the material may leave or enter a fixed box (no closed-mass balance)."""
+
+    def counters(self) -> dict[str, int]:
+        """No mesh velocity: none solved (run.json's entry, as for a moving domain)."""
+        return {"mesh_velocity_factorizations": self.solves}
 
     def undo(self, disc, token) -> None:
         pass

@@ -6,6 +6,10 @@ Remesh when the smallest angle is below ``numerics.remesh_min_angle`` and at lea
 REMESH_COOLDOWN steps have passed since the last remesh; a remesh that could not reach the
 threshold (a sharp boundary corner) lowers it to REMESH_DEGRADATION × the angle it left,
 so that the same mesh is not rebuilt every REMESH_COOLDOWN steps.
+
+Events (``loop.EventSource``): ``landings``, the free-surface nodes of the nose that came
+down on the bed in accepted moves. Check of an accepted step (``check_step``): the energy
+balance of a closed mass moving with the mesh.
 """
 
 from __future__ import annotations
@@ -17,6 +21,9 @@ from dpcollapse.ale.motion import quality, retag_landed
 from dpcollapse.domain.region_remesh import remesh_regions
 from dpcollapse.errors import MeshError
 
+#: Energy guard: the kinetic energy may exceed the work of gravity by at most this fraction
+#: before the run is declared numerically unstable.
+ENERGY_TOLERANCE = 0.05
 #: Largest area change a remesh may make by dropping boundary vertices, relative to the
 #: initial area.
 REMESH_AREA_TOLERANCE = 1e-6
@@ -31,6 +38,7 @@ log = logging.getLogger("dpcollapse")
 
 class MovingDomain:
     moving = True
+    counted_events = ("landings",)
 
     def __init__(self, remesh_min_angle: float, mesh_size: float,
                  surface_mesh_size: float | None = None, trim_thickness: float = 0.0,
@@ -39,6 +47,8 @@ class MovingDomain:
         self.trim_thickness, self.conserve_area = trim_thickness, conserve_area
         self.mesh_size, self.surface_mesh_size = mesh_size, surface_mesh_size
         self.solves = 0
+        self._landed = 0       # nose nodes landed in accepted moves, not yet taken
+        self._attempt = 0      # ... and in the move not yet accepted
 
     def limit_step(self, disc, dt: float) -> float:
         """Solve for w from uⁿ; the largest safe step ≤ dt (``MeshMotion.max_step``). With
@@ -46,7 +56,7 @@ class MovingDomain:
         cuts the step, w is solved again for the shorter step and the limit checked again."""
         self.recompute(disc, dt)
         limit = disc.motion.max_step(dt)
-        if limit < dt and getattr(disc.flow, "scheme", "bdf1") == "bdf2":
+        if limit < dt and disc.flow.scheme == "bdf2":
             self.recompute(disc, limit)
             limit = disc.motion.max_step(limit)
         return limit
@@ -59,11 +69,42 @@ class MovingDomain:
     def move(self, disc, dt: float):
         """x ← x + Δt w: (old coordinates, the mesh with the facets of front nodes that landed
         on the bed retagged as bed (``ale.motion.retag_landed``) or None, nodes landed)."""
+        self._landed += self._attempt   # the previous move was kept (``undo`` not called)
         old_x, landed = disc.motion.move(dt)
-        return old_x, (retag_landed(disc.tagged) if landed else None), landed
+        self._attempt = landed
+        if landed:
+            log.debug("%d nose node(s) landed on the bed", landed)
+        return old_x, (retag_landed(disc.tagged) if landed else None)
 
     def undo(self, disc, old_x) -> None:
         disc.mesh.geometry.x[:] = old_x
+        self._attempt = 0
+
+    def take_events(self) -> dict[str, int]:
+        """Nose nodes that landed on the bed since the last call (``landings``)."""
+        landed, self._landed, self._attempt = self._landed + self._attempt, 0, 0
+        return {"landings": landed}
+
+    def counters(self) -> dict[str, int]:
+        """run.json: the mesh-velocity solves (one factorization each)."""
+        return {"mesh_velocity_factorizations": self.solves}
+
+    def check_step(self, measures: dict, state) -> None:
+        """Dissipative flow: KE(t) − KE(0) ≤ W(t), the work of gravity ρ∫f·x dx|₀ᵗ (the mesh
+        moves with the material). The explicit ALE moves the mesh with the previous step's
+        velocity, so the kinetic energy of step n−1 is compared with the work up to step n;
+        a gain above (1 + ENERGY_TOLERANCE) W means a numerical instability (MeshError)."""
+        st, m = state, measures
+        work = m["gravity_moment"] - st.gravity_moment0
+        previous = st.kinetic_energy_previous
+        gained = (st.kinetic_energy0 if previous is None else previous) - st.kinetic_energy0
+        st.kinetic_energy_previous = m["kinetic_energy"]
+        if gained > (1 + ENERGY_TOLERANCE) * max(work, 0.0) + 1e-9 * max(abs(st.gravity_moment0), 1.0):
+            raise MeshError(
+                f"numerically unstable at t = {st.t:.4f} s: the kinetic energy gained "
+                f"({gained:.3g} J/m) exceeds the work of gravity ({work:.3g} J/m); min cell angle "
+                f"{m['min_angle']:.2f}°: the mass is likely thinner than geometry.mesh_size = "
+                f"{self.mesh_size:g} m somewhere — use a finer mesh or a shorter time.end_time")
 
     def needs_remesh(self, disc, state) -> str | None:
         q = quality(disc.mesh)

@@ -9,7 +9,7 @@ from pathlib import Path
 COLUMNS = [
     "step", "t", "dt", "dt_limit", "courant", "iterations", "residual", "front", "max_height", "kinetic_energy",
     "area", "max_speed", "remeshes", "wall_time",
-    "thick_front", "landings",
+    "thick_front",
 ]
 
 
@@ -20,7 +20,9 @@ class DiagnosticsWriter:
                  extra_columns: tuple[str, ...] = ()):
         self.path = Path(path)
         self.rank = comm.rank
-        #: COLUMNS, then the model's own measures (the depth-averaged model: wet_front, outflow)
+        #: COLUMNS, then the counts of the domain's and the model's named events (the moving
+        #: domain: landings) and the model's own measures (the depth-averaged model:
+        #: wet_front, outflow), as the loop gives them
         self.columns = COLUMNS + [c for c in extra_columns if c not in COLUMNS]
         from dpcollapse import parallel
 

@@ -5,7 +5,10 @@
   model is a new package here); it provides ``from_config(cfg)``;
 - ``model_class(method, nonlinear_solver)``: the 2D flow class whose ``method`` is
   ``numerics.method`` and whose ``nonlinear_solver`` is ``numerics.nonlinear_solver`` (None:
-  the method's only one); it provides ``from_config(tagged, cfg, params)``."""
+  the method's only one); it provides ``from_config(tagged, cfg, params)``.
+
+A class is found by what it declares in its own body: a subclass that inherits ``method``
+(the two-phase model's flow of the mixture, a ``RegularizedFlow``) is not a method's class."""
 
 from __future__ import annotations
 
@@ -25,14 +28,14 @@ def _package_modules() -> list[str]:
 
 
 def _classes_by(attribute: str, modules, every: bool = False) -> list[tuple[str, type]]:
-    """(value of ``attribute`` (a str), the class defining it with ``from_config``) for the
-    classes of ``modules``."""
+    """(value of ``attribute`` (a str), the class declaring it in its own body, with
+    ``from_config``) for the classes of ``modules``."""
     found = []
     for name in modules:
         module = importlib.import_module(name)
         for obj in vars(module).values():
-            key = getattr(obj, attribute, None)
-            if (isinstance(obj, type) and isinstance(key, str) and hasattr(obj, "from_config")
+            key = vars(obj).get(attribute) if isinstance(obj, type) else None
+            if (isinstance(key, str) and hasattr(obj, "from_config")
                     and obj.__module__ == module.__name__):
                 found.append((key, obj))
     return found

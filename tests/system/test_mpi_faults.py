@@ -35,14 +35,14 @@ _LAUNCHER = textwrap.dedent("""
     fault = os.environ.get("DPC_FAULT", "")
     if fault == "lone_mesh_error":          # a breakdown detected on rank 1 only
         from dpcollapse.errors import MeshError
-        from dpcollapse.simulation import Simulation
-        original, calls = Simulation._check_energy, [0]
-        def check(self, m):
+        from dpcollapse.domain.moving import MovingDomain
+        original, calls = MovingDomain.check_step, [0]
+        def check(self, m, state):
             calls[0] += 1
             if rank == 1 and calls[0] == 3:
                 raise MeshError("injected breakdown on rank 1")
-            return original(self, m)
-        Simulation._check_energy = check
+            return original(self, m, state)
+        MovingDomain.check_step = check
     elif fault == "stuck_mesher":           # gmsh looping forever at the first remesh
         from dpcollapse.geometry import mesher
         original, calls = mesher.build_polygon_model, [0]

@@ -32,7 +32,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("ale",),
     ("domain",),
     ("models",),
-    ("loop", "simulation"),
+    ("progress", "stop_request", "fingerprint", "step_size", "loop", "simulation"),
     ("plot", "validation", "sweep"),
     ("studies",),
     ("cli", "config_doc", "__init__"),

@@ -92,7 +92,45 @@ def test_domains_implement_the_protocol():
         assert all(hasattr(cls, n) or n == "solves" for n in names), cls
     fixed = make_domain(load_config(ROOT / "configs/plug.yaml"))
     assert isinstance(fixed, FixedDomain) and not fixed.moving
-    assert fixed.limit_step(None, 1e-3) == math.inf and fixed.move(None, 1e-3) == (None, None, 0)
+    assert fixed.limit_step(None, 1e-3) == math.inf and fixed.move(None, 1e-3) == (None, None)
     assert fixed.needs_remesh(None, LoopState()) is None
     moving = make_domain(load_config(ROOT / "configs/rigid.yaml"))
     assert isinstance(moving, MovingDomain) and moving.moving and moving.mesh_size == 0.01
+
+
+def test_event_counts_are_checkpoint_entries_of_their_own_and_continue_on_resume():
+    """A named event's count is stored under its name (``landings``, as before events were
+    named), and a resumed run continues it; an event a checkpoint lacks starts at 0."""
+    st = LoopState(t=0.5)
+    st.count_events(("landings",))
+    st.add_events({"landings": 3})
+    d = st.to_dict()
+    assert d["landings"] == 3 and "event_counts" not in d
+    back = LoopState.from_dict(json.loads(json.dumps(d)))
+    assert back.extra == {"landings": 3}
+    back.count_events(("landings", "surgery"))
+    assert back.event_counts == {"landings": 3, "surgery": 0} and back.extra == {}
+    assert back.to_dict() == {**d, "surgery": 0}
+
+
+def test_moving_domain_counts_the_landings_of_accepted_moves_only(monkeypatch):
+    """``MovingDomain.take_events``: the nose nodes that landed in moves that were kept; a
+    move taken back (``undo``: a failed or rejected attempt) counts none."""
+    from types import SimpleNamespace
+
+    from dpcollapse.domain import moving
+
+    monkeypatch.setattr(moving, "retag_landed", lambda tagged: "retagged")
+    landed = [2, 3, 0, 1]
+    disc = SimpleNamespace(motion=SimpleNamespace(move=lambda dt: (None, landed.pop(0))),
+                           tagged=None, mesh=SimpleNamespace(geometry=SimpleNamespace(x=np.zeros(3))))
+    domain = moving.MovingDomain(30.0, 0.01)
+    assert domain.counted_events == ("landings",)
+    assert domain.move(disc, 1e-3) == (None, "retagged")
+    domain.undo(disc, np.zeros(3))          # the attempt failed: its 2 nodes are back up
+    assert domain.move(disc, 5e-4) == (None, "retagged")
+    assert domain.take_events() == {"landings": 3}
+    assert domain.move(disc, 1e-3) == (None, None)
+    domain.move(disc, 1e-3)
+    assert domain.take_events() == {"landings": 1}
+    assert domain.take_events() == {"landings": 0}

@@ -117,3 +117,95 @@ def test_no_branching_on_scene_model_or_method_names_outside_the_registries():
     assert not offenders, "\n".join(offenders)
     # the pattern finds what it is for
     assert pattern.search('if g.shape == "erodible":') and pattern.search("m in ('two_phase', x)")
+    # the loop (simulation.py, loop.py) asks no model by getattr/hasattr or by its keys either
+    for name in LOOP_MODULES:
+        offenders = loop_probes((ROOT / "dpcollapse" / name).read_text())
+        assert not offenders, f"dpcollapse/{name}:\n" + "\n".join(offenders)
+
+
+#: the modules of the time loop, which know no model (``loop`` declares what they ask)
+LOOP_MODULES = ("simulation.py", "loop.py")
+#: the keys the loop reads of its own dicts: the checkpoint's run identity, its state's
+#: fields, its timings, the summary it wrote (``run_simulation``'s log line)
+LOOP_KEYS = {"run", "run_id", "extra", "event_counts", "solve", "mesh_motion", "remesh", "output",
+             "total", "summary", "status", "t", "steps", "remeshes", "area_drift", "flow_solves"}
+
+
+def _model_specific_names() -> set[str]:
+    """What only some models or domains have: their diagnostics columns, events, measures
+    of a bin or a layer, exact rest and stop reasons."""
+    import importlib
+    import pkgutil
+
+    import dpcollapse.domain
+    import dpcollapse.models
+
+    names = {"emptied", "landings", "outflow_area", "discharge_rate", "min_angle"}
+    for package in (dpcollapse.models, dpcollapse.domain):
+        for info in pkgutil.walk_packages(package.__path__, prefix=package.__name__ + "."):
+            if info.ispkg:
+                continue
+            for obj in vars(importlib.import_module(info.name)).values():
+                if isinstance(obj, type):
+                    declared = vars(obj)
+                    names.update(declared.get("extra_measures", ()), declared.get("counted_events", ()))
+    from dpcollapse.models.two_phase.adapter import BIN_MEASURES
+    from dpcollapse.models.two_phase.layer import MEASURES as LAYER_MEASURES
+
+    return names | set(BIN_MEASURES) | set(LAYER_MEASURES)
+
+
+def loop_probes(source: str) -> list[str]:
+    """Where ``source`` asks a model by ``getattr``/``hasattr``, or reads a dict (``d[k]``,
+    ``d.get(k)``, ``k in d``) by a key that is neither a shared measure (``loop.MEASURES``)
+    nor the loop's own (``LOOP_KEYS``), or names anything only some models have:
+    ``line: code`` of each."""
+    import ast
+
+    from dpcollapse.loop import MEASURES
+
+    allowed, specific = set(MEASURES) | LOOP_KEYS, _model_specific_names()
+    tree, lines, found = ast.parse(source), source.splitlines(), []
+
+    def key(node):
+        return node.value if isinstance(node, ast.Constant) and isinstance(node.value, str) else None
+
+    for node in ast.walk(tree):
+        probe = None
+        if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                and node.func.id in ("getattr", "hasattr")):
+            probe = node.func.id
+        elif (isinstance(node, ast.Subscript) and isinstance(node.ctx, ast.Load)
+              and key(node.slice) not in (None, *allowed)):
+            probe = key(node.slice)
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.args
+              and node.func.attr in ("get", "pop", "setdefault")
+              and key(node.args[0]) not in (None, *allowed)):
+            probe = key(node.args[0])
+        elif (isinstance(node, ast.Compare) and isinstance(node.ops[0], (ast.In, ast.NotIn))
+              and not isinstance(node.comparators[0], ast.Call)    # a substring of a message
+              and key(node.left) not in (None, *allowed)):
+            probe = key(node.left)
+        elif isinstance(node, ast.Constant) and node.value in specific:
+            probe = node.value
+        if probe is not None:
+            found.append(f"{node.lineno}: {lines[node.lineno - 1].strip()}  ({probe})")
+    return found
+
+
+@pytest.mark.parametrize("snippet", [
+    'scheme = getattr(disc.flow, "scheme", "bdf1")',
+    'if hasattr(self.disc, "motion"):\n    pass',
+    'emptied = bool(m.get("emptied", False))',
+    'area = m["area"] + m["outflow_area"]',
+    'if "discharge_rate" in row:\n    pass',
+    'st.status = "emptied"',
+    'row = {"landings": st.landings}',
+])
+def test_loop_probe_check_catches_an_injected_probe(snippet):
+    """The check of the loop modules fails on each kind of probe put into simulation.py."""
+    source = (ROOT / "dpcollapse/simulation.py").read_text()
+    assert loop_probes(source) == []
+    injected = source + "\n\ndef _injected(self, disc, st, m, row):\n" + "".join(
+        f"    {line}\n" for line in snippet.splitlines())
+    assert loop_probes(injected)

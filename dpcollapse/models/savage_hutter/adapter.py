@@ -29,6 +29,7 @@ from dpcollapse import compat
 from dpcollapse.errors import ConfigError, ConvergenceError
 from dpcollapse.domain.fixed import FixedDomain
 from dpcollapse.io.checkpoint import choose_checkpoint, write_npz_atomic
+from dpcollapse.models.base import DiscretizationDefaults
 from dpcollapse.models.savage_hutter.scheme import interface_terms, update, velocity
 from dpcollapse.models.savage_hutter.setup import SavageHutterSetup, setup_from_config
 from dpcollapse.models.savage_hutter.solver import (_heun_step, front_position,
@@ -55,6 +56,9 @@ class SavageHutterFlow:
     exported_cell_fields = ()
     #: an explicit step is one "iteration" (the adaptive step rule of the loop)
     iteration_scale = 1
+
+    def local_error(self) -> None:
+        """No local error estimate (``time.tolerance`` is the 2D model's)."""
 
     def __init__(self, setup: SavageHutterSetup):
         self.setup = setup
@@ -131,7 +135,7 @@ class SavageHutterFlow:
         pass
 
 
-class SavageHutterDiscretization:
+class SavageHutterDiscretization(DiscretizationDefaults):
     """The flow on its grid, its measures, step limit and output fields (``loop``)."""
 
     #: measures beyond the shared ones: diagnostics columns and run.json summary entries
@@ -199,9 +203,9 @@ class SavageHutterDiscretization:
         self.out_velocity.x.array[self._dofs] = self.flow.velocity()[self._index]
         return [self.out_thickness, self.out_velocity]
 
-    def summary_measures(self) -> dict:
-        """No run.json entries beyond the per-step measures."""
-        return {}
+    def exact_rest(self, measures: dict) -> bool:
+        """The state is a fixed point of the scheme (every ū = 0, no mass crosses a face)."""
+        return bool(measures["at_rest"])
 
     def solver_counts(self) -> dict[str, int]:
         """An explicit scheme: no linear solver, no counters."""

@@ -28,6 +28,7 @@ from dpcollapse.rheology.base import Rheology
 from dpcollapse.rheology.choice import law_from_material
 from dpcollapse.scenes.base import film_threshold, thickness_front
 from dpcollapse.scenes.registry import build_mesh, scene as make_scene
+from dpcollapse.models.base import DiscretizationDefaults
 from dpcollapse.models.registry import model_class
 from dpcollapse.models.stokes.augmented import augmented_settings  # noqa: F401  (callers import it here)
 from dpcollapse.models.stokes.regularized import picard_settings  # noqa: F401  (callers import it here)
@@ -76,7 +77,7 @@ def make_flow(tagged: TaggedMesh, cfg: Config, scene=None):
                                                                  flow_parameters(cfg, scene))
 
 
-class StokesDiscretization:
+class StokesDiscretization(DiscretizationDefaults):
     """Everything that lives on one mesh: the flow, the mesh motion, outputs, integrals."""
 
     #: measures beyond the shared ones (``loop``): none
@@ -235,9 +236,8 @@ class StokesDiscretization:
         self.out_flowing.x.array[:] = (speed > FLOWING_SPEED).astype(float)
         fields = [self.out_velocity, self.out_pressure, self.out_strain_rate, self.out_flowing]
         fields.append(self.out_region)
-        gamma = getattr(self.flow, "surface_gamma", None)
-        if gamma is not None:       # seed 000's local surface tension γ = γ0 C [Pa]
-            fields.append(gamma)
+        if self.flow.surface_gamma is not None:   # seed 000's local surface tension γ = γ0 C [Pa]
+            fields.append(self.flow.surface_gamma)
         for function in self.out_cells:
             cells = compat.cell_dofs(function.function_space)[:, 0]
             function.x.array[cells] = self.flow.cell_field(function.name)
@@ -245,9 +245,6 @@ class StokesDiscretization:
         fields.extend(self.out_extra.interpolated())
         return fields
 
-    def summary_measures(self) -> dict:
-        """No run.json entries beyond the per-step measures."""
-        return {}
 
     def solver_counts(self) -> dict[str, int]:
         return self.flow.solver_counts()

@@ -67,6 +67,7 @@ class StepReport:
     iterations: int
     residual: float        # estimated error of the last iterate relative to the RMS velocity
     message: str = ""
+    dt: float | None = None   # the step taken [s], when shorter than asked (never: implicit)
 
 
 #: Largest contraction factor used in the error estimate of the fixed point.
@@ -225,6 +226,9 @@ class StokesState:
                 if b.slanted and self._has_tag(b.tag)]
 
     # ------------------------------------------------------------------ surface tension
+    #: the P1 field γ of seed 000's local surface tension, None without it
+    surface_gamma = None
+
     def _surface_tension(self, ds):
         """(γ, ds over the free surface) for the forms' "surface_tension" term when
         ``params.surface_tension`` γ̄0 > 0 (γ the P1 field ``surface_gamma``, set from the

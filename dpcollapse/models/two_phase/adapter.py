@@ -36,6 +36,7 @@ from dpcollapse.geometry.layer import structured_rectangle
 from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
 from dpcollapse.io.law_fields import LawFields
+from dpcollapse.models.base import DiscretizationDefaults
 from dpcollapse.models.stokes.regularized import picard_settings
 from dpcollapse.models.stokes.state import FlowParameters
 from dpcollapse.models.two_phase.adaptive import AdaptiveBox, SizeField, equivalent_size
@@ -109,7 +110,7 @@ def _shortest_edges(triangles: np.ndarray) -> np.ndarray:
 BIN_MEASURES = ("discharge_rate", "outflow_area", "fill_height", "bin_mass")
 
 
-class TwoPhaseDiscretization:
+class TwoPhaseDiscretization(DiscretizationDefaults):
     """The two-phase flow on the box, its measures and output fields (``loop``)."""
 
     #: h(x = 0) [m]; min and max of c; advection sub-steps of the last step
@@ -279,6 +280,16 @@ class TwoPhaseDiscretization:
                 "fill_height": float(self.vessel.floor(wall_x)) + float(h[-1]),
                 "bin_mass": 2.0 * rho * area,
                 "emptied": initial > 0 and area < self.cfg.geometry.empty_fraction * initial}
+
+    def stop_reason(self, measures: dict) -> str | None:
+        """A bin that has discharged (``emptied``: less than ``geometry.empty_fraction`` of
+        its material left) ends the run."""
+        return "emptied" if self.bin and measures["emptied"] else None
+
+    def mass_area(self, measures: dict) -> float:
+        """The area in the vessel plus what left through an outflow side [m²]: outflow is
+        not a loss."""
+        return measures["area"] + (measures["outflow_area"] if self.bin else 0.0)
 
     def summary_measures(self) -> dict:
         """run.json's steady discharge (a bin): the mean and relative standard deviation of Q

@@ -77,10 +77,8 @@ PREVIOUS_FRACTION = "volume_fraction_previous"
 
 
 class TwoPhaseFlow(RegularizedFlow):
-    """The regularized flow of the mixture on a fixed mesh, carrying c."""
-
-    #: not a ``numerics.method``: the registry must not take it for the regularized model
-    method = None
+    """The regularized flow of the mixture on a fixed mesh, carrying c. (It declares no
+    ``method`` of its own: ``models.registry`` does not take it for a ``numerics.method``.)"""
 
     def __init__(self, tagged, params: FlowParameters, settings: PicardSettings, light: LightFluid):
         self.light = light
