@@ -66,6 +66,9 @@ class Discretization(Protocol):
     tagged: object
     extra_measures: tuple[str, ...]
     counted_events: tuple[str, ...]
+    #: the panel ``dpcollapse plot`` draws its diagnostics over time in: front (front and
+    #: max height) or discharge (a bin's Q, −dm/dt and fill height); run.json's ``history_plot``
+    history_plot: str
     #: the thickness [m] above which the mass counts for the thickness front ``thick_front``
     film_threshold: float
 

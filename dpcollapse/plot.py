@@ -2,7 +2,9 @@
 depth-averaged run (a line mesh), the thickness h(x) and velocity ū(x) profiles.
 
 Reads only what a run writes for its users — ``solution.xdmf`` (and the HDF5 files it
-points to) and ``diagnostics.csv`` — so it plots any run, finished or not.
+points to), ``diagnostics.csv`` and run.json's ``history_plot`` (the panel the model
+declared for its diagnostics over time: ``HISTORY_PLOTS``) — so it plots any run, finished
+or not.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import numpy as np
 
 from dpcollapse.errors import ConfigError
 from dpcollapse.io.diagnostics import read_diagnostics
+from dpcollapse.io.runinfo import read_history_plot
 
 #: Tolerance to tell bed (y = 0) and wall (x = 0) edges from the free surface [m].
 BOUNDARY_TOL = 1e-9
@@ -132,6 +135,21 @@ def _plot_discharge(ax, d) -> None:
     ax.legend(lines[0] + more[0], lines[1] + more[1], fontsize=8)
 
 
+def _plot_front(ax, d) -> None:
+    """The front position and the maximum height over time [m]."""
+    ax.plot(d["t"], d["front"], label="front position (furthest x of the mass)")
+    ax.plot(d["t"], d["max_height"], label="maximum height")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("[m]")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+
+
+#: the panels of the diagnostics over time, by the name a model declares
+#: (``loop.Discretization.history_plot``, written to run.json)
+HISTORY_PLOTS = {"front": _plot_front, "discharge": _plot_discharge}
+
+
 def plot_run(run_dir: Path, times: list[float] | None = None) -> Path:
     """Draw profiles at ``times`` (default: six output times) and front vs time."""
     import matplotlib
@@ -197,15 +215,8 @@ def plot_run(run_dir: Path, times: list[float] | None = None) -> Path:
     diag_path = run_dir / "diagnostics.csv"
     if diag_path.exists():
         d = read_diagnostics(diag_path)
-        if d and "discharge_rate" in d:
-            _plot_discharge(ax2, d)
-        elif d:
-            ax2.plot(d["t"], d["front"], label="front position (furthest x of the mass)")
-            ax2.plot(d["t"], d["max_height"], label="maximum height")
-            ax2.set_xlabel("t [s]")
-            ax2.set_ylabel("[m]")
-            ax2.legend(fontsize=8)
-            ax2.grid(alpha=0.3)
+        if d:
+            HISTORY_PLOTS[read_history_plot(run_dir / "run.json")](ax2, d)
     fig.tight_layout()
     out = run_dir / "collapse.png"
     fig.savefig(out, dpi=120)

@@ -22,7 +22,8 @@ class Progress:
             from tqdm import tqdm
             from tqdm.contrib.logging import logging_redirect_tqdm
 
-            self.bar = tqdm(total=end_time, unit="s", bar_format="{l_bar}{bar}| {n:.3f}/{total:.2f} s{postfix}")
+            self.bar = tqdm(total=end_time, unit="s",
+                            bar_format="{l_bar}{bar}| {n:.3f}/{total:.2f} s{postfix}")
             # log lines (remeshes, warnings) go above the bar instead of into it
             root = logging.getLogger()
             filters = [f for h in root.handlers for f in h.filters]
@@ -40,7 +41,8 @@ class Progress:
             self.bar.n = t
             self.bar.set_postfix_str(f"step {step} dt {dt:.1e} it {iterations} front {front:.4f} m")
         elif step % self.every == 0:
-            log.info("step %d  t = %.4f s  dt = %.2e s  iterations %d  front %.4f m", step, t, dt, iterations, front)
+            log.info("step %d  t = %.4f s  dt = %.2e s  iterations %d  front %.4f m",
+                     step, t, dt, iterations, front)
 
     def close(self) -> None:
         if self._redirect is not None:

@@ -100,15 +100,11 @@ class Simulation:
                                              resume_after=self.state.t if resume else None,
                                              extra_columns=self.counted_events + self.disc.extra_measures)
         if resume:   # the checkpoint step's row, if the file lost it (cut by a crash)
-            restored = parallel.agree(comm, lambda: self.diagnostics.restore(
+            parallel.agree(comm, lambda: self.diagnostics.restore(
                 {"step": self.state.step, "t": self.state.t, "remeshes": self.state.remeshes,
                  **self.state.event_counts, **self._last_measures}))
-            if restored:
-                log.warning("diagnostics.csv ended before the checkpoint (t = %.4f s): its row "
-                            "was rebuilt from the checkpoint (dt, iterations: nan); rows between "
-                            "them, if any, are lost", self.state.t)
         self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg),
-                            run_id=self.identity["run_id"])
+                            run_id=self.identity["run_id"], history_plot=self.disc.history_plot)
         self.timings = {"solve": 0.0, "mesh_motion": 0.0, "remesh": 0.0, "output": 0.0}
         self.iteration_counts: list[int] = []
         self.step_sizes: list[float] = []
@@ -280,7 +276,7 @@ class Simulation:
         stop_request = StopRequest()
         previous = {s: signal.signal(s, stop_request) for s in (signal.SIGTERM, signal.SIGINT)}
         # ended at once (a rank failed alone, a stuck mesher): run.json says so, from this rank
-        abort_hook = parallel.on_abort(self._record_abort)
+        abort_hook = parallel.on_abort(self.info.record_abort)
         agreed_stop = False   # an interrupt every rank agreed on (the ranks are in step)
         try:
             while st.t < cfg.time.end_time - 1e-12:
@@ -351,14 +347,6 @@ class Simulation:
                 signal.signal(s, handler)
         parallel.remove_abort_hook(abort_hook)
         return self._finish(st.status, progress)
-
-    def _record_abort(self, exit_code: int, message: str) -> None:
-        """The job is ended at once (``parallel.on_abort``): run.json from this rank."""
-        from dpcollapse.io.runinfo import write_json_atomic
-
-        self.info.update(status="interrupted" if exit_code == 130 else "failed",
-                         summary={**self.info.data.get("summary", {}), "error": message})
-        write_json_atomic(self.info.path, self.info.data)
 
     def _finish(self, status: str, progress: Progress, error: str | None = None,
                 collective: bool = True) -> dict:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import logging
 import os
 from pathlib import Path
 
@@ -63,6 +64,9 @@ class DiagnosticsWriter:
             return False
         self._writer.writerow({k: row.get(k, float("nan")) for k in self.columns})
         self._file.flush()
+        logging.getLogger("dpcollapse").warning(
+            "diagnostics.csv ended before the checkpoint (t = %.4f s): its row was rebuilt from "
+            "the checkpoint (dt, iterations: nan); rows between them, if any, are lost", t)
         return True
 
     def close(self) -> None:

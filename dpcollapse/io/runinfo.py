@@ -38,10 +38,19 @@ def write_json_atomic(path: Path, data: dict) -> None:
         raise
 
 
+def read_history_plot(path: Path) -> str:
+    """run.json's ``history_plot`` (the panel its model declared for its diagnostics over
+    time); "front" for a run.json without it (older) or unreadable."""
+    try:
+        return str(json.loads(Path(path).read_text()).get("history_plot") or "front")
+    except (OSError, ValueError, AttributeError):
+        return "front"
+
+
 class RunInfo:
     """Collects what a run did and rewrites ``run.json`` atomically on rank 0."""
 
-    def __init__(self, path: Path, comm, config: dict, run_id: str | None = None):
+    def __init__(self, path: Path, comm, config: dict, run_id: str | None = None, **entries):
         self.path = Path(path)
         self.rank = comm.rank
         self.started = time.time()
@@ -55,6 +64,7 @@ class RunInfo:
             "config": config,
             "timings": {},
             "summary": {},
+            **entries,   # what the model declares for the run's readers (history_plot)
         }
         if self.path.exists():  # resumed: keep the history of earlier segments
             try:
@@ -69,6 +79,13 @@ class RunInfo:
 
     def update(self, **kwargs) -> None:
         self.data.update(kwargs)
+
+    def record_abort(self, exit_code: int, message: str) -> None:
+        """The job is ended at once (``parallel.on_abort``): run.json from this rank, status
+        interrupted (exit 130) or failed, the message as the summary's error."""
+        self.update(status="interrupted" if exit_code == 130 else "failed",
+                    summary={**self.data.get("summary", {}), "error": message})
+        write_json_atomic(self.path, self.data)
 
     def write(self) -> None:
         """Rewrite run.json (rank 0; not collective)."""

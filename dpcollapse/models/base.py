@@ -77,6 +77,8 @@ class DiscretizationDefaults:
 
     #: the names of the events it reports (``loop.EventSource``)
     counted_events: tuple[str, ...] = ()
+    #: the panel ``dpcollapse plot`` draws its diagnostics over time in (``plot.HISTORY_PLOTS``)
+    history_plot = "front"
 
     def take_events(self) -> dict[str, int]:
         return {}

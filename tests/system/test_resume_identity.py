@@ -49,11 +49,13 @@ def test_a_run_of_a_program_older_than_a_key_resumes(tmp_path, monkeypatch):
     import yaml
 
     import dpcollapse.simulation as simulation
+    from dpcollapse import fingerprint
+    from dpcollapse.config import config_to_dict
 
     def older(cfg):
-        data = simulation.config_to_dict(cfg)
+        data = config_to_dict(cfg)
         del data["output"]["format"]
-        return simulation._fingerprint(data)
+        return fingerprint._fingerprint(data)
 
     out = tmp_path / "run"
     with monkeypatch.context() as patch:

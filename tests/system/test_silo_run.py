@@ -15,9 +15,12 @@ TINY = ["geometry.width=0.06", "geometry.fill_height=0.05", "geometry.bin_height
         "time.checkpoint_every=100"]
 
 
-def test_paraview_opens_a_silo_run(tmp_path):
+def test_paraview_opens_a_silo_run(tmp_path, monkeypatch):
     """The silo's output opens in ParaView (Xdmf3ReaderT): c and the velocity at every output
-    time, on the half bin [0, W/2] × [0, bin height]."""
+    time, on the half bin [0, W/2] × [0, bin height]; ``dpcollapse plot`` draws the discharge
+    panel the model declared (run.json's ``history_plot``)."""
+    from dpcollapse import plot
+
     over = TINY + ["time.end_time=0.02", "time.output_every=10"]
     summary = simulation("silo.yaml", over, tmp_path, comm=MPI.COMM_SELF).run()
     assert summary["status"] == "end_time"
@@ -26,6 +29,10 @@ def test_paraview_opens_a_silo_run(tmp_path):
     assert "volume_fraction" in pv["cell_arrays"] and "velocity" in pv["point_arrays"]
     xmin, xmax, ymin, ymax = pv["last"]["bounds"][:4]
     assert (xmin, xmax, ymin, ymax) == pytest.approx((0.0, 0.03, 0.0, 0.06), abs=1e-9)
+    drawn = []
+    monkeypatch.setitem(plot.HISTORY_PLOTS, "discharge", lambda ax, d: drawn.append(sorted(d)))
+    assert plot.plot_run(tmp_path).exists()
+    assert drawn and "discharge_rate" in drawn[0]
 
 
 def test_tiny_silo_discharges_and_conserves_its_material(tmp_path):

@@ -139,6 +139,7 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
         self._discharge, self._last_outflow = [], None   # (Δt, Q) of the accepted steps
         if self.bin:
             self.extra_measures = type(self).extra_measures + BIN_MEASURES
+            self.history_plot = "discharge"   # Q, −dm/dt and the fill height over time
         # columns for h(x) = ∫ c dy: strips of the structured mesh's width along x (on the
         # adaptive mesh: of min_cell)
         self.nx = max(2, round(vessel.length / fine))
