@@ -8,13 +8,13 @@ meshed trapezoid by a gmsh file with the same physical tags.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from dpcollapse.geometry.mesher import BED
-from dpcollapse.geometry.trapezoid import trapezoid_polygon
+from dpcollapse.geometry.mesher import BED, SURFACE, WALL
 from dpcollapse.scenes.base import (
     walled_boundaries,
     Boundary,
@@ -28,6 +28,16 @@ from dpcollapse.scenes.base import (
     top_extent,
 )
 
+
+
+def trapezoid_polygon(height: float, base_length: float, flank_angle_deg: float):
+    """CCW vertices and edge tags of the trapezoid (edge i joins vertex i and i+1): bed, free
+    surface (flank and top) and wall. The right flank rises at angle α0 back over the mass
+    (our reading of seed 000; see shared/reference/README.md)."""
+    top = base_length - height / math.tan(math.radians(flank_angle_deg))
+    points = np.array([[0.0, 0.0], [base_length, 0.0], [top, height], [0.0, height]])
+    tags = np.array([BED, SURFACE, SURFACE, WALL], dtype=np.int32)
+    return points, tags
 
 @dataclass(frozen=True)
 class TrapezoidScene(PolygonScene):

@@ -10,7 +10,7 @@ from mpi4py import MPI
 
 from dpcollapse.config import load_config
 from dpcollapse.geometry.mesher import BED, SURFACE, WALL
-from dpcollapse.geometry.trapezoid import trapezoid_polygon
+from dpcollapse.scenes.trapezoid import trapezoid_polygon
 from dpcollapse.scenes.registry import build_mesh, write_msh
 from tests.helpers import ROOT
 
