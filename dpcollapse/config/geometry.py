@@ -188,6 +188,39 @@ class ColumnGeometry(_Geometry):
         return self
 
 
+class HeapGeometry(_Geometry):
+    """Half of a symmetric triangular heap: the right triangle (0, 0), (L0, 0), (0, H0), its
+    flank at β = atan(H0/L0) to the bed, against a frictionless symmetry wall at x = 0."""
+
+    shape: Literal["heap"] = _f("heap", "", "Half of a symmetric triangular heap")
+    height: Number = _f(0.1, "m", "Height H0 of the heap on its axis", gt=0)
+    base_length: Number = _f(0.1, "m", "Half-width L0: from the axis to the toe", gt=0)
+    bed_angle: Number = _bed_angle()
+    mesh_size: Number = _mesh_size()
+    surface_mesh_size: Number | None = _surface_mesh_size()
+    mesh_file: PathStr | None = _mesh_file("heap")
+
+    @property
+    def area(self) -> float:
+        """H0 L0 / 2 [m^2]."""
+        return 0.5 * self.height * self.base_length
+
+    @property
+    def flank_angle(self) -> float:
+        """β = atan(H0/L0) [deg]."""
+        return math.degrees(math.atan2(self.height, self.base_length))
+
+    def describe(self) -> str:
+        return (f"heap: height {self.height:g} m, half-width {self.base_length:g} m, flank "
+                f"{self.flank_angle:.3g} deg, area {self.area:.4f} m^2")
+
+    @model_validator(mode="after")
+    def _fits(self) -> HeapGeometry:
+        limit = 0.5 * min(self.height, self.base_length)
+        self._cells_fit(limit, f"heap (must be < {limit:.3g} m = min(height, base_length)/2)")
+        return self
+
+
 class ErodibleGeometry(TrapezoidGeometry):
     """The trapezoid of ``trapezoid`` released on a layer of the same material (seed 000 case
     II, erodible bed): the layer [0, layer_length] x [0, layer_thickness] on the bed, the
@@ -330,10 +363,10 @@ def _shape_of(value: Any) -> str:
 GeometryConfig = Annotated[
     Annotated[TrapezoidGeometry, Tag("trapezoid")] | Annotated[LayerGeometry, Tag("layer")]
     | Annotated[ColumnGeometry, Tag("column")] | Annotated[ErodibleGeometry, Tag("erodible")]
-    | Annotated[SiloGeometry, Tag("silo")],
+    | Annotated[SiloGeometry, Tag("silo")] | Annotated[HeapGeometry, Tag("heap")],
     Discriminator(_shape_of),
 ]
 #: geometry.shape -> its config class
 GEOMETRIES: dict[str, type[_Geometry]] = {"trapezoid": TrapezoidGeometry, "layer": LayerGeometry,
                                           "column": ColumnGeometry, "erodible": ErodibleGeometry,
-                                          "silo": SiloGeometry}
+                                          "silo": SiloGeometry, "heap": HeapGeometry}
