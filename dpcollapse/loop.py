@@ -6,7 +6,8 @@ The loop knows no model: everything a model or a domain adds to a run is declare
 its step limit (``max_step``), its local error estimate (``flow.local_error``) and iteration
 scale (``flow.iteration_scale``), the step it actually took (``report.dt``), its own stop
 reason (``stop_reason``: the silo's ``emptied``), the area its mass balance counts
-(``mass_area``: with what left through an outflow), its diagnostics columns
+(``mass_area``: with what left through an outflow), its exact rest state (``exact_rest``),
+its diagnostics columns
 (``extra_measures``), its run.json entries (``summary_measures``; the domain's
 ``counters``), its check of an accepted step (the moving domain's energy guard,
 ``Domain.check_step``) and its named events (``counted_events``, ``take_events``: the moving
@@ -44,19 +45,20 @@ class Discretization(Protocol):
     """A model on its current mesh or grid, as the loop (``simulation``) uses it.
 
     ``flow`` is the model (``models.base.Model``: solve_step → a report with converged,
-    iterations, residual, message and optionally ``dt``, the step actually taken when an
-    explicit stage bound cut it; accept_step, reset_iterate, snapshot/transfer,
-    copy_state_from, ``iteration_scale``). ``solver_counts()`` gives the counters of its
+    iterations, residual, message and ``dt``, the step actually taken when an explicit stage
+    bound cut it, else None; accept_step, reset_iterate, snapshot/transfer, copy_state_from,
+    ``iteration_scale``, ``local_error()``). ``solver_counts()`` gives the counters of its
     solvers by run.json name (flow_factorizations, krylov_iterations, newton_fallbacks; none
     for a model that solves no linear system). ``measures()`` returns at least front,
     thick_front, max_height [m], kinetic_energy, gravity_moment [J/m], area [m²], max_speed
     [m/s], the model's own ``extra_measures`` (its diagnostics columns and run.json entries:
     the 2D model's mesh quality min_angle [deg], min_detJ and μ(I)'s ill_posed_fraction, the
-    depth-averaged wet_front, the two-phase fraction bounds …) and optionally ``at_rest``
-    (the state is an exact rest state: the run stops once max |u| < time.rest_speed).
-    ``summary_measures()``: run.json entries computed over the whole run (the silo's
-    steady discharge), {} for none. ``stop_reason(measures)``: the run's status when the
-    model's own rule ends it after this step (the silo: ``emptied``), else None.
+    depth-averaged wet_front, the two-phase fraction bounds …); the loop reads
+    ``MEASURES`` only. ``exact_rest(measures)``: the state is an exact rest state (the run
+    stops once max |u| < time.rest_speed). ``summary_measures()``: run.json entries computed
+    over the whole run (the silo's steady discharge), {} for none. ``stop_reason(measures)``:
+    the run's status when the model's own rule ends it after this step (the silo:
+    ``emptied``), else None.
     ``mass_area(measures)``: the area A [m²] the mass balance compares with the initial one,
     area_drift = (A − A₀)/A₀ — the area inside plus what left through an outflow side.
     ``counted_events``/``take_events()``: as ``EventSource``."""
@@ -79,6 +81,8 @@ class Discretization(Protocol):
     def summary_measures(self) -> dict: ...
 
     def stop_reason(self, measures: dict) -> str | None: ...
+
+    def exact_rest(self, measures: dict) -> bool: ...
 
     def mass_area(self, measures: dict) -> float: ...
 
