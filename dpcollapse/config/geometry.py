@@ -273,6 +273,11 @@ class ErodibleGeometry(TrapezoidGeometry):
         return self
 
 
+#: The smallest feature of a scene's own vessel (the silo's orifice), as a fraction of its
+#: largest side: gmsh's geometric tolerance (Geometry.Tolerance) is 1e-8 of the model's size.
+SMALLEST_FEATURE = 1.0e-7
+
+
 class SiloGeometry(_Geometry):
     """A silo (flat-bottomed bin) or a hopper (``hopper_angle``) of width W filled to H, an
     orifice of width D centred in its bottom (Beverloo's law; seed 004's hour glass); the
@@ -332,6 +337,13 @@ class SiloGeometry(_Geometry):
         if self.orifice_width >= self.width:
             raise ConfigError(f"geometry.orifice_width = {_fmt(self.orifice_width)}: must be < "
                               f"geometry.width = {_fmt(self.width)} m")
+        extent = max(self.width, self.bin_height)
+        if self.orifice_width < SMALLEST_FEATURE * extent:
+            # 1e-300 m: a mesh with edges of length 0 (a division by zero in the step's limit)
+            raise ConfigError(f"geometry.orifice_width = {_fmt(self.orifice_width)}: must be in "
+                              f"[{SMALLEST_FEATURE * extent:.3g}, {_fmt(self.width)}) m (at least "
+                              f"{SMALLEST_FEATURE:g} of the vessel's largest side, {extent:g} m: "
+                              "a finer one is near gmsh's geometric tolerance, 1e-8 of the model's size)")
         if self.fill_height > self.bin_height:
             raise ConfigError(f"geometry.fill_height = {_fmt(self.fill_height)}: must be <= "
                               f"geometry.bin_height = {_fmt(self.bin_height)} m (the fill is "

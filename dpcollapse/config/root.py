@@ -13,8 +13,8 @@ from dpcollapse.errors import ConfigError
 from dpcollapse.config.fields import _fmt, _Section
 from dpcollapse.config.geometry import GEOMETRIES, GeometryConfig, TrapezoidGeometry
 from dpcollapse.config.material import DruckerPragerMaterial, MaterialConfig
-from dpcollapse.config.models import (MAX_GRID_CELLS, MEMORY_PER_CELL, ModelConfig, StokesModel,
-                                      box_cells, mesh_cells)
+from dpcollapse.config.models import ModelConfig, StokesModel
+from dpcollapse.config.sizes import first_mesh, refuse_too_large
 from dpcollapse.config.numerics import BoundaryConfig, NumericsConfig
 from dpcollapse.config.run import InitialConfig, OutputConfig, TimeConfig
 
@@ -98,16 +98,9 @@ class Config(_Section):
         return self
 
     def _moving_mesh(self) -> None:
-        """The mass's mesh must fit the cell limit (``geometry.mesh_size`` = 1e-5 m asked gmsh
-        for about 7e8 triangles)."""
-        g = self.geometry
-        cells = mesh_cells(g.area, g.mesh_size)
-        if cells > MAX_GRID_CELLS:
-            smallest = math.sqrt(g.area / (math.sqrt(3.0) / 4.0 * MAX_GRID_CELLS))
-            raise ConfigError(
-                f"geometry.mesh_size = {_fmt(g.mesh_size)}: about {cells:.3g} cells for the "
-                f"{g.area:.4g} m^2 of the mass (about {cells * MEMORY_PER_CELL / 1e9:.3g} GB), more "
-                f"than {MAX_GRID_CELLS}; must be >= {smallest:.3g} m")
+        """The mass's mesh must fit the cell limit and the machine (``geometry.mesh_size`` =
+        1e-5 m asked gmsh for about 7e8 triangles): ``config.sizes``."""
+        refuse_too_large(first_mesh(self))
 
     def _two_phase(self) -> None:
         """The fixed box must contain the column; the rest is refused (one line each)."""
@@ -121,6 +114,7 @@ class Config(_Section):
                 raise ConfigError(f"model.{key} = {_fmt(getattr(m, key))}: the adaptive box is for "
                                   f"the box scenes; must be null with geometry.shape = {g.shape}")
             self._unused_numerics("two_phase", allowed=("regularized", "picard"))
+            refuse_too_large(first_mesh(self))
             return
         (length, height), what = g.footprint, "initial material"
         if m.box_length < length:
@@ -135,13 +129,7 @@ class Config(_Section):
         if m.box_length < 2 * g.mesh_size or m.box_height < 2 * g.mesh_size:
             raise ConfigError(f"geometry.mesh_size = {_fmt(g.mesh_size)}: must be at most half "
                               "of model.box_length and model.box_height with model.name = two_phase")
-        cells = box_cells(m.box_length, m.box_height, g.mesh_size)
-        if cells > MAX_GRID_CELLS:
-            raise ConfigError(
-                f"model.box_length = {_fmt(m.box_length)}, model.box_height = {_fmt(m.box_height)}: "
-                f"about {cells:.3g} cells at geometry.mesh_size = {_fmt(g.mesh_size)} m (about "
-                f"{cells * MEMORY_PER_CELL / 1e9:.3g} GB), more than {MAX_GRID_CELLS}; a smaller "
-                "box or a larger mesh size")
+        refuse_too_large(first_mesh(self))
         self._unused_numerics("two_phase", allowed=("regularized", "picard"))
 
     def _unused_numerics(self, model: str, allowed: tuple[str, ...] = ()) -> None:

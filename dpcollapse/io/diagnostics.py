@@ -7,6 +7,9 @@ import logging
 import os
 from pathlib import Path
 
+from dpcollapse.errors import OutputError
+from dpcollapse.io.presence import DirectoryPresence
+
 COLUMNS = [
     "step", "t", "dt", "dt_limit", "courant", "iterations", "residual", "front", "max_height", "kinetic_energy",
     "area", "max_speed", "remeshes", "wall_time",
@@ -31,6 +34,8 @@ class DiagnosticsWriter:
 
     def _start(self, resume_after: float | None) -> None:
         """Rank 0: the file with the rows kept on resume, open for appending."""
+        #: the run directory as taken (checked before each row)
+        self._presence = DirectoryPresence(self.path.parent)
         rows = []
         if resume_after is not None and self.path.exists():
             rows = [r for r in complete_rows(self.path) if float(r["t"]) <= resume_after + 1e-12]
@@ -47,9 +52,17 @@ class DiagnosticsWriter:
         self._file = self.path.open("a", newline="")
         self._writer = csv.DictWriter(self._file, fieldnames=self.columns)
 
+    def _check_present(self) -> None:
+        """OutputError (exit 5) when the run directory or the file was removed: rows
+        appended to an unlinked file are lost in silence."""
+        self._presence.check(self.path.name)
+        if os.fstat(self._file.fileno()).st_nlink == 0 or not self.path.exists():
+            raise OutputError(f"{self.path} was removed during the run; its rows are lost")
+
     def write(self, row: dict) -> None:
         if self.rank != 0:
             return
+        self._check_present()
         self._writer.writerow({k: row[k] for k in self.columns})
         self._file.flush()
 
@@ -62,6 +75,7 @@ class DiagnosticsWriter:
         t = float(row["t"])
         if self.last_kept_t is not None and self.last_kept_t >= t - 1e-12 * max(1.0, abs(t)):
             return False
+        self._check_present()
         self._writer.writerow({k: row.get(k, float("nan")) for k in self.columns})
         self._file.flush()
         logging.getLogger("dpcollapse").warning(

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from dpcollapse.io.presence import DirectoryPresence
 from dpcollapse.io.vtx import VTXTimeSeries
 from dpcollapse.io.xdmf import XDMFTimeSeries
 
@@ -54,6 +55,8 @@ class CheckpointExport:
     def __init__(self, path: Path, every: int):
         self.path = Path(path)
         self.every = every
+        #: the run directory as taken
+        self.presence = DirectoryPresence(self.path.parent)
 
     def due(self, step: int) -> bool:
         return step % self.every == 0
@@ -63,3 +66,6 @@ class CheckpointExport:
         (``loop.ModelFactory.save_checkpoint``); ``state``: the loop state as a JSON-able
         dict."""
         factory.save_checkpoint(self.path, disc, state)
+        # after the collective write (every rank, so none is left inside it): a checkpoint
+        # written into a run directory made again is not the run's
+        self.presence.check(self.path.name)

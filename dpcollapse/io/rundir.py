@@ -148,26 +148,7 @@ class RunDirectory:
         self._lock_fd = take_lock(self.path, LOCK_NAME, "run")
 
     def _remove_run(self) -> None:
-        """Remove the files a run writes, and only those: in fields/ and vtx/ the step
-        files (``step_NNNNNN.xdmf/.h5``, ``*.bp``); a folder is removed only once empty."""
-        for name in RUN_FILES:
-            (self.path / name).unlink(missing_ok=True)
-        for name in RUN_DIRS:
-            folder = self.path / name
-            if not folder.is_dir():
-                continue
-            for item in folder.iterdir():
-                if _RUN_STEP.match(item.name):
-                    if item.is_dir() and not item.is_symlink():
-                        shutil.rmtree(item, ignore_errors=True)
-                    else:
-                        item.unlink(missing_ok=True)
-            try:
-                folder.rmdir()
-            except OSError:          # something the run did not write is left in it
-                pass
-        for tmp in self.path.glob("*.tmp"):
-            tmp.unlink(missing_ok=True)
+        remove_run_files(self.path)
 
     def _check_resume(self, config: dict[str, Any]) -> None:
         has_checkpoint = any((self.path / n).exists()
@@ -203,6 +184,31 @@ class RunDirectory:
 
     def __exit__(self, *exc) -> None:
         self.release()
+
+
+def remove_run_files(path: Path) -> None:
+    """Remove the files a run writes in ``path``, and only those: RUN_FILES, in fields/ and
+    vtx/ the step files (``step_NNNNNN.xdmf/.h5``, ``*.bp``), ``*.tmp``; a folder is removed
+    only once empty (``--overwrite``; the ladder's run directories)."""
+    path = Path(path)
+    for name in RUN_FILES:
+        (path / name).unlink(missing_ok=True)
+    for name in RUN_DIRS:
+        folder = path / name
+        if not folder.is_dir() or folder.is_symlink():
+            continue
+        for item in folder.iterdir():
+            if _RUN_STEP.match(item.name):
+                if item.is_dir() and not item.is_symlink():
+                    shutil.rmtree(item, ignore_errors=True)
+                else:
+                    item.unlink(missing_ok=True)
+        try:
+            folder.rmdir()
+        except OSError:          # something the run did not write is left in it
+            pass
+    for tmp in path.glob("*.tmp"):
+        tmp.unlink(missing_ok=True)
 
 
 def take_lock(folder: Path, name: str, holder_kind: str) -> int:

@@ -8,6 +8,8 @@ import platform
 import time
 from pathlib import Path
 
+from dpcollapse.io.presence import DirectoryPresence
+
 
 def versions() -> dict:
     import dolfinx
@@ -53,6 +55,8 @@ class RunInfo:
     def __init__(self, path: Path, comm, config: dict, run_id: str | None = None, **entries):
         self.path = Path(path)
         self.rank = comm.rank
+        #: the run directory as taken: the status is never written into another one
+        self.presence = DirectoryPresence(self.path.parent)
         self.started = time.time()
         self.data = {
             "status": "running",
@@ -90,5 +94,6 @@ class RunInfo:
     def write(self) -> None:
         """Rewrite run.json (rank 0; not collective)."""
         if self.rank == 0:
+            self.presence.check(f"{self.path.name} (status {self.data.get('status')})")
             self.data["wall_time"] = time.time() - self.started
             write_json_atomic(self.path, self.data)

@@ -29,7 +29,8 @@ from typing import Sequence
 
 from mpi4py import MPI
 
-from dpcollapse import compat
+from dpcollapse import compat, parallel
+from dpcollapse.io.presence import DirectoryPresence
 
 SEGMENTS = "segments.json"
 
@@ -43,6 +44,9 @@ class VTXTimeSeries:
         self.directory = Path(directory) / "vtx"
         if comm.rank == 0:
             self.directory.mkdir(parents=True, exist_ok=True)
+        #: the run directory and vtx/ as taken (checked before each write: ADIOS2 would
+        #: make a removed directory again)
+        self._presence = [DirectoryPresence(directory), DirectoryPresence(self.directory)]
         comm.barrier()
         self.segments: list[dict] = self._read_index()
         self._segment_functions: list = []
@@ -83,6 +87,8 @@ class VTXTimeSeries:
         always brings them, a landing on the same mesh too; a writer holds the ones it was
         made with — start a new segment. ``mesh`` is that of ``XDMFTimeSeries.write``; the
         functions carry theirs."""
+        parallel.on_root(self.comm, lambda: [p.check(f"vtx at t = {float(t):g} s")
+                                             for p in self._presence])
         same = (len(functions) == len(self._segment_functions)
                 and all(f is g for f, g in zip(functions, self._segment_functions)))
         if not same:

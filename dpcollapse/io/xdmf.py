@@ -51,7 +51,9 @@ import h5py
 from mpi4py import MPI
 
 from dpcollapse import compat, parallel
+from dpcollapse.errors import OutputError
 from dpcollapse.io.durable import fsync_path
+from dpcollapse.io.presence import DirectoryPresence, missing_files
 
 __all__ = ["XDMFTimeSeries", "check_output_function"]
 
@@ -177,6 +179,8 @@ class XDMFTimeSeries:
 
         def setup():
             self.fields_dir.mkdir(parents=True, exist_ok=True)
+            #: the run directory and fields/ as they were taken (checked before each write)
+            self._presence = [DirectoryPresence(self.directory), DirectoryPresence(self.fields_dir)]
             if self.master.exists():
                 try:
                     self._grids = self._read_master(self.master)
@@ -228,6 +232,9 @@ class XDMFTimeSeries:
 
         index = self._next_index
         step_xdmf = self.step_path(index)
+        # before DOLFINx writes: its HDF5 writer would make a removed directory again
+        self._on_root(lambda: self._check_present(f"{self.fields_dir.name}/{step_xdmf.name}"))
+
         def write_step():
             try:
                 with c_stderr_captured() as captured:   # HDF5 prints its error stack there
@@ -254,6 +261,7 @@ class XDMFTimeSeries:
                 fsync_path(step_h5)
                 fsync_path(step_xdmf)
             self._grids.append(self._flatten_step(step_xdmf, index, t))
+            self._check_present(self.master.name, index)
             self._write_master()
             return None
 
@@ -282,6 +290,18 @@ class XDMFTimeSeries:
         self._next_index = self._steps[-1][0] + 1 if self._steps else 0
 
     # ------------------------------------------------------------------ internals
+    def _check_present(self, writing: str, new_index: int | None = None) -> None:
+        """Rank 0: OutputError (exit 5) when the run directory or fields/ was removed or
+        replaced, or a step file the master references (the published ones and
+        ``new_index``) is missing: the master must never point at data that is not there."""
+        for presence in self._presence:
+            presence.check(writing)
+        indices = [i for i, _ in self._steps] + ([new_index] if new_index is not None else [])
+        gone = missing_files([self.fields_dir / f"step_{i:06d}.h5" for i in indices])
+        if gone:
+            raise OutputError(f"{len(gone)} step file(s) of {self.master.name} were removed "
+                              f"during the run (first: {gone[0]}); writing {writing} stopped")
+
     def _on_root(self, fn):
         """Run ``fn`` on rank 0, share its result (or its exception) with all ranks."""
         return parallel.on_root(self.comm, fn)

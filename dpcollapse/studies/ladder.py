@@ -39,7 +39,6 @@ from __future__ import annotations
 import argparse
 import csv
 import math
-import shutil
 import sys
 import time
 from dataclasses import dataclass, field
@@ -282,6 +281,41 @@ class Rung:
     extra: dict = field(default_factory=dict)
 
 
+#: The file the ladder writes into each run directory it makes under --work: only a folder
+#: that holds it is the ladder's to clear (a user's folder of a case's name is never touched).
+WORK_MARK = ".dpcollapse-ladder"
+
+
+class NotTheLaddersError(ConfigError):
+    """A folder under --work of a case's name that the ladder did not make (exit 2)."""
+
+
+def check_work_dir(run_dir: Path) -> None:
+    """ConfigError (exit 2) when ``run_dir`` exists and is not the ladder's (no WORK_MARK):
+    a file, a link, or a folder with anything in it."""
+    if not (run_dir.exists() or run_dir.is_symlink()):
+        return
+    ours = run_dir.is_dir() and not run_dir.is_symlink() and (run_dir / WORK_MARK).is_file()
+    if ours or (run_dir.is_dir() and not run_dir.is_symlink() and not any(run_dir.iterdir())):
+        return
+    raise NotTheLaddersError(f"--work = {run_dir.parent}: {run_dir.name} exists and was not made by the "
+                      f"ladder (no {WORK_MARK} in it); move it, or choose another --work")
+
+
+def claim_work_dir(run_dir: Path) -> None:
+    """Make ``run_dir`` ready for a rung: a folder the ladder made before loses the files a run
+    writes (``io.rundir.remove_run_files``, as ``run --overwrite``: nothing else); a folder it
+    did not make is refused (``check_work_dir``); the marker is written into it."""
+    from dpcollapse.io.rundir import remove_run_files
+
+    check_work_dir(run_dir)
+    if run_dir.is_dir():
+        remove_run_files(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / WORK_MARK).write_text("made by dpcollapse ladder: its run files are replaced when "
+                                     "the case runs again\n")
+
+
 def run_2d(cfg: Config, run_dir: Path, grid: Grid) -> Rung:
     """The 2D run (``Simulation``, as ``dpcollapse run``); a failure is a result."""
     from dpcollapse.ale.remesh import boundary_polygon
@@ -289,8 +323,7 @@ def run_2d(cfg: Config, run_dir: Path, grid: Grid) -> Rung:
     from dpcollapse.io.diagnostics import read_diagnostics
     from dpcollapse.simulation import Simulation
 
-    if run_dir.exists():
-        shutil.rmtree(run_dir)
+    claim_work_dir(run_dir)
     t0, c0 = time.perf_counter(), time.process_time()
     sim = Simulation(cfg, run_dir, quiet=True)
     try:
@@ -318,8 +351,7 @@ def run_two_phase(cfg: Config, run_dir: Path, grid: Grid) -> Rung:
     from dpcollapse.io.diagnostics import read_diagnostics
     from dpcollapse.simulation import Simulation
 
-    if run_dir.exists():
-        shutil.rmtree(run_dir)
+    claim_work_dir(run_dir)
     t0, c0 = time.perf_counter(), time.process_time()
     sim = Simulation(cfg, run_dir, quiet=True)
     try:
@@ -526,23 +558,57 @@ def _csv_rows(path: Path, required: list[str]) -> list[dict]:
         raise ConfigError(f"{path}: cannot be read ({exc}); delete it to run the cases "
                           "again") from None
     if missing:
-        raise ConfigError(f"{path}: not a ladder table (no column {', '.join(missing)}); "
+        more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+        raise ConfigError(f"{path}: not a ladder table (no column {', '.join(missing[:3])}{more}); "
                           "delete it to run the cases again")
     return rows
 
 
+#: The columns of ladder.csv that hold text; the others hold numbers (nan for a failed rung).
+TEXT_COLUMNS = ("case", "group", "param", "config", "overrides", "sh_friction", "status_2d",
+                "status_sh", "within_5pct", "status_sh_k", "status_sh_ka", "status_tp")
+#: Every row has the 2D and depth-averaged rungs' columns; the K variants' and the two-phase
+#: rung's are all empty (not run yet) or all filled.
+CORE_COLUMNS = COLUMNS[:COLUMNS.index("k_act")]
+OPTIONAL_GROUPS = (COLUMNS[COLUMNS.index("k_act"):COLUMNS.index("status_tp")],
+                   COLUMNS[COLUMNS.index("status_tp"):])
+
+
 def read_rows(path: Path) -> list[dict]:
-    """The rows of ladder.csv (numbers as floats where they parse)."""
+    """The rows of ladder.csv (numbers as floats), in the order of the file; columns a user
+    added are kept as read. A table that is not the ladder's (a missing column, a number
+    column that does not parse) is ConfigError naming the file, the row and the column."""
     if not path.exists():
         return []
-    rows = _csv_rows(path, ["case"])
-    for r in rows:
+    rows = _csv_rows(path, CORE_COLUMNS)
+    for i, r in enumerate(rows):
         for k, v in r.items():
             try:
                 r[k] = float(v)
             except (TypeError, ValueError):
                 pass
+        _check_row(path, i, r)
     return rows
+
+
+def _check_row(path: Path, i: int, row: dict) -> None:
+    """ConfigError unless ``row`` (numbers already parsed) has numbers where the ladder
+    writes them: in every core column, and in a K or two-phase group that is filled."""
+    def bad(column: str) -> ConfigError:
+        return ConfigError(f"{path}: not a ladder table (row {i + 2}, column {column} = "
+                           f"{str(row.get(column))[:30]!r} is not a number); delete it to run the "
+                           "cases again")
+
+    for column in CORE_COLUMNS:
+        if column not in TEXT_COLUMNS and not isinstance(row.get(column), float):
+            raise bad(column)
+    for group in OPTIONAL_GROUPS:
+        numbers = [c for c in group if c not in TEXT_COLUMNS]
+        if all(row.get(c) in ("", None) for c in numbers):
+            continue
+        for column in numbers:
+            if not isinstance(row.get(column), float):
+                raise bad(column)
 
 
 def read_series(path: Path) -> dict:
@@ -561,13 +627,15 @@ def read_series(path: Path) -> dict:
 
 
 def write_results(out: Path, rows: list[dict], series: list[tuple], stem: str = "ladder") -> None:
-    """Rewrite STEM.csv and STEM_series.csv whole (rows in plan order)."""
+    """Rewrite STEM.csv and STEM_series.csv whole (rows in plan order; the columns a user
+    added to STEM.csv kept, after the ladder's)."""
     out.mkdir(parents=True, exist_ok=True)
+    extra = list(dict.fromkeys(k for r in rows for k in r if k not in COLUMNS))
     with (out / f"{stem}.csv").open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=COLUMNS)
+        w = csv.DictWriter(fh, fieldnames=COLUMNS + extra)
         w.writeheader()
         for r in rows:
-            w.writerow({k: _fmt(r.get(k, "")) for k in COLUMNS})
+            w.writerow({k: _fmt(r.get(k, "")) for k in COLUMNS + extra})
     with (out / f"{stem}_series.csv").open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(SERIES_COLUMNS)
@@ -1053,12 +1121,20 @@ def run(quick=False, out="runs/ladder", work="runs/ladder", only=None, redo=Fals
     for (c, rung, kind), arr in read_series(out / f"{stem}_series.csv").items():
         curves.setdefault(c, []).extend((c, rung, kind, x, y) for x, y in arr)
 
+    changed = False
+
     def save():
+        nonlocal changed
+        changed = True
         names = [c.name for c in plan if c.name in done]
         names += [n for n in done if n not in names]        # other plans' cases are kept
         write_results(out, [done[n] for n in names], [s for n in names for s in curves.get(n, [])],
                       stem)
 
+    if not plot_only:     # before any run: a user's folder of a case's name is refused
+        for case in plan:
+            if not only or case.name in only:
+                check_work_dir(work / (f"{case.name}_tp" if two_phase else case.name))
     for case in plan:
         old = done.get(case.name)
         fresh = old is not None and _same_case(old, case, dx)
@@ -1077,6 +1153,8 @@ def run(quick=False, out="runs/ladder", work="runs/ladder", only=None, redo=Fals
             try:
                 cols, more = two_phase_rung(case, old, work, dx, cells_across or (
                     TWO_PHASE_CELLS_ACROSS_L0_QUICK if quick else TWO_PHASE_CELLS_ACROSS_L0))
+            except NotTheLaddersError:
+                raise
             except ConfigError as exc:      # a scene the two-phase model cannot carry
                 cols, more = {"status_tp": f"refused: {exc}"}, []
             old.update(cols)
@@ -1103,7 +1181,8 @@ def run(quick=False, out="runs/ladder", work="runs/ladder", only=None, redo=Fals
         echo(f"  2D {row['status_2d']} {row['wall_2d_s']:.1f} s, SH {row['status_sh']} "
              f"{row['wall_sh_s']:.2f} s: runout {row['runout_2d']:.4f} / {row['runout_sh']:.4f} m, "
              f"H_f {row['height_2d']:.4f} / {row['height_sh']:.4f} m")
-    save()
+    if not changed and not (out / f"{stem}.csv").exists():
+        save()          # an empty table (nothing run): the files exist for the chart
     rows = read_rows(out / f"{stem}.csv")
     if shallow:
         rows = [r for r in rows if str(r["group"]).startswith("shallow")]

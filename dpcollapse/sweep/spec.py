@@ -260,6 +260,19 @@ def _factors(path: Path, spec: SweepFile) -> list[list[tuple[dict, str | None]]]
     return factors
 
 
+def _refuse_varied_overrides(path: Path, spec: SweepFile, extra: tuple[str, ...]) -> None:
+    """A ``--set`` of a key the sweep varies (its grid, zip or cases) would be overridden by
+    each case's own value, silently: ConfigError naming the key (issue 47)."""
+    where = {**{k: "grid" for k in spec.grid}, **{k: "zip" for k in spec.zip or {}},
+             **{k: "cases" for item in spec.cases or [] for k in dict(item) if k != "name"}}
+    for item in extra:
+        key = str(item).split("=", 1)[0].strip()
+        if key in where:
+            raise ConfigError(f"--set {key}: varied by the sweep file {path} (its {where[key]}: "
+                              "each case sets its own value); remove the --set, or change the "
+                              f"{where[key]} in the sweep file")
+
+
 def load_sweep(path: str | Path, extra: tuple[str, ...] = ()) -> Sweep:
     """Read and validate a sweep file; ``extra`` are ``section.key=value`` overrides given
     on the command line for every case (after the file's ``set``). Raises ConfigError."""
@@ -279,6 +292,7 @@ def load_sweep(path: str | Path, extra: tuple[str, ...] = ()) -> Sweep:
     fixed = [f"{k}={yaml_value(v)}" for k, v in spec.set.items()] + list(extra)
     combos = list(itertools.product(*_factors(path, spec)))
     params = [{k: v for p, _ in combo for k, v in p.items()} for combo in combos]
+    _refuse_varied_overrides(path, spec, extra)
     names = case_names([{k: v for p, n in combo for k, v in ({"name": n} if n else p).items()}
                         for combo in combos])
     folded: dict[str, int] = {}

@@ -166,6 +166,34 @@ def test_bad_override_names_the_case_and_key(tmp_path, capsys):
     assert not (tmp_path / "out").exists()  # nothing ran
 
 
+@pytest.mark.parametrize("section", ["grid", "zip", "cases"])
+def test_a_set_of_a_key_the_sweep_varies_is_refused(tmp_path, capsys, section):
+    """Issue 47: `sweep beverloo.yaml --set geometry.orifice_width=0.03` ran the five widths,
+    the --set silently ignored."""
+    body = {"grid": "grid:\n  geometry.bed_angle: [5, 10]\n",
+            "zip": "zip:\n  geometry.bed_angle: [5, 10]\n  geometry.height: [0.2, 0.25]\n",
+            "cases": "cases:\n  - {geometry.bed_angle: 5}\n  - {geometry.bed_angle: 10, name: b}\n"}
+    path = _write(tmp_path, f"base: {RIGID}\n" + body[section], "varied.yaml")
+    out = tmp_path / "out"
+    assert main(["sweep", str(path), "--set", "time.end_time=0.1", "--dry-run", "--out",
+                 str(out)]) == 0                        # a key it does not vary: fine
+    capsys.readouterr()
+    for dry in (["--dry-run"], []):                     # refused before anything runs
+        assert main(["sweep", str(path), "--set", "geometry.bed_angle=20", *dry, "--out",
+                     str(out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and err.startswith(
+            f"dpcollapse: error: --set geometry.bed_angle: varied by the sweep file {path} (its "
+            f"{section}"), err
+        assert not out.exists()
+
+
+def test_the_beverloo_sweep_refuses_a_set_of_its_orifice_width(tmp_path, capsys):
+    assert main(["sweep", str(ROOT / "configs" / "sweeps" / "beverloo.yaml"), "--set",
+                 "geometry.orifice_width=0.03", "--dry-run", "--out", str(tmp_path / "o")]) == 2
+    assert "--set geometry.orifice_width: varied by the sweep file" in capsys.readouterr().err
+
+
 def test_refuses_to_run_once_per_rank(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "2")
     path = _write(tmp_path, TINY)

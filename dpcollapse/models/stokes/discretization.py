@@ -266,13 +266,12 @@ class StokesFactory:
     def describe(cfg) -> list[str]:
         """The lines of ``dpcollapse check``: the mesh's cell estimate (and memory), the
         augmented Lagrangian's parameters when it is the method."""
-        from dpcollapse.config import MEMORY_PER_CELL, mesh_cells
+        from dpcollapse.config.sizes import first_mesh
         from dpcollapse.models.describe import lines_2d
 
-        g = cfg.geometry
-        cells = mesh_cells(g.area, g.mesh_size)
-        own = [f"mesh: about {cells:.3g} cells at {g.mesh_size:g} m "
-               f"(about {cells * MEMORY_PER_CELL / 1e6:.3g} MB)"]
+        est = first_mesh(cfg)     # from the finest size used (the free surface's too)
+        own = [f"mesh: about {est.cells:.3g} cells at {cfg.geometry.mesh_size:g} m "
+               f"(about {est.memory / 1e6:.3g} MB)"]
         flow = model_class(cfg.numerics.method, cfg.numerics.nonlinear_solver)
         own += flow.describe(cfg)
         return lines_2d(cfg, own)

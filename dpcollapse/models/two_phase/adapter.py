@@ -347,13 +347,14 @@ class TwoPhaseFactory:
     @staticmethod
     def describe(cfg) -> list[str]:
         """The lines of ``dpcollapse check``: the 2D model's, with the box's cell estimate."""
-        from dpcollapse.config import MEMORY_PER_CELL, box_cells
+        from dpcollapse.config.sizes import first_mesh
         from dpcollapse.models.describe import lines_2d
 
         vessel = container(cfg)
-        cells = box_cells(vessel.length, vessel.height, cfg.geometry.mesh_size)
+        est = first_mesh(cfg)     # from the finest size used (model.min_cell, the orifice's)
         return lines_2d(cfg, [f"two-phase vessel {vessel.length:g} x {vessel.height:g} m: about "
-                              f"{cells:.3g} cells (about {cells * MEMORY_PER_CELL / 1e6:.3g} MB)"])
+                              f"{est.cells:.3g} cells of {est.finest:.3g} m and coarser (about "
+                              f"{est.memory / 1e6:.3g} MB)"])
 
     def domain(self) -> FixedDomain | AdaptiveBox:
         """The box: nothing moves; the adaptive mesh (``adaptive.AdaptiveBox``) is rebuilt
