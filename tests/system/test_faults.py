@@ -270,18 +270,18 @@ def test_mesh_velocity_breakdown_is_a_mesh_failure_with_the_time(tmp_path, capsy
 
 
 def test_a_bug_is_exit_1_with_the_traceback_in_error_log(tmp_path, capsys, monkeypatch):
-    from dpcollapse.simulation import Simulation
+    from dpcollapse.domain.moving import MovingDomain
 
     calls = {"n": 0}
-    original = Simulation._check_energy
+    original = MovingDomain.check_step
 
-    def check_energy(self, m):
+    def check_step(self, m, state):
         calls["n"] += 1
         if calls["n"] == 2:
             raise ZeroDivisionError("injected")
-        return original(self, m)
+        return original(self, m, state)
 
-    monkeypatch.setattr(Simulation, "_check_energy", check_energy)
+    monkeypatch.setattr(MovingDomain, "check_step", check_step)
     out = tmp_path / "run"
     assert _run(out, end=0.01) == 1
     line = _one_error_line(capsys.readouterr().err)
