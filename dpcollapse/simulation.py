@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-from dpcollapse import compat, parallel, signals
+from dpcollapse import compat, parallel, signals, watchdog
 from dpcollapse.config import Config, config_to_dict, save_config
 from dpcollapse.errors import ConfigError, ConvergenceError, Interrupted, MeshError
 from dpcollapse.geometry.mesher import TaggedMesh
@@ -235,6 +235,17 @@ class Simulation:
         parallel.agree(self.comm, lambda: self.checkpoint_export.write(
             self.factory, self.disc, {**self.state.to_dict(), "run": self.identity}))
         self.timings["output"] += time.perf_counter() - t0
+        self._prepare_watchdog()
+
+    def _prepare_watchdog(self) -> None:
+        """What ``watchdog`` writes should a stop request find no safe point: run.json
+        ``interrupted``, naming the last checkpoint (rank 0 writes run.json and the line;
+        another rank leaves silently with the same status)."""
+        st = self.state
+        where = (f"the last checkpoint (step {st.checkpoint_step}, t = {st.t:.4f} s) is whole"
+                 if st.checkpoint_step is not None else "no checkpoint was written yet")
+        if self.comm.rank == 0:
+            watchdog.prepare(self.info.path, self.info.data, where)
 
     def _remesh(self, reason: str) -> None:
         t0 = time.perf_counter()
@@ -419,6 +430,7 @@ class Simulation:
         # ended at once (a rank failed alone, a stuck mesher): run.json says so, from this rank
         abort_hook = parallel.on_abort(self._record_abort)
         agreed_stop = False   # an interrupt every rank agreed on (the ranks are in step)
+        self._prepare_watchdog()
         try:
             while st.t < cfg.time.end_time - 1e-12:
                 dt, iterations, residual = self._step()
@@ -454,6 +466,7 @@ class Simulation:
                 if at_rest or stop:
                     st.status = "at_rest" if at_rest else "stopped_by_observer"
                     break
+                watchdog.safe_point()   # a stop request is honoured here (else the watchdog)
                 if stop_request.requested(self.comm):   # after an accepted step: save it
                     self._output()
                     self._checkpoint()
