@@ -54,7 +54,7 @@ from dpcollapse.io.runinfo import RunInfo
 from dpcollapse.io.exports import CheckpointExport, FieldExport
 from dpcollapse.loop import Discretization, Events, LoopState, ModelFactory
 from dpcollapse.models.registry import model_factory
-from dpcollapse.solvers.step_control import StepController
+from dpcollapse.solvers.step_control import StepController, ToleranceUnreachable, fit_to_end
 
 log = logging.getLogger("dpcollapse")
 
@@ -68,6 +68,10 @@ FEW_ITERATIONS = 3
 #: ... and the shrink factor after a fixed point of more than this many iterations.
 STEP_SHRINK = 0.7
 MANY_ITERATIONS = 12
+#: time.tolerance: consecutive steps at time.dt_min above the tolerance before the run ends
+#: (exit 3): the controller reaches dt_min within a few rejections (×0.2 each), so 20 steps
+#: there mean the tolerance is out of reach, not a transient.
+TOLERANCE_PATIENCE = 20
 
 
 class Progress:
@@ -196,6 +200,7 @@ class Simulation:
         self.halvings = 0   # step attempts that failed and were retried with dt/2
         #: the error-controlled step (time.tolerance), else None
         self.controller = StepController(cfg.time.tolerance) if cfg.time.tolerance else None
+        self.unreachable = ToleranceUnreachable(TOLERANCE_PATIENCE)   # steps at dt_min above it
         if self.controller is not None and self.state.step_controller is not None:
             self.controller.restore(self.state.step_controller)   # resumed
         self.dt_limit = math.inf
@@ -332,7 +337,7 @@ class Simulation:
         reason = self.domain.needs_remesh(self.disc, st)
         if reason:
             self._remesh(reason)
-        dt = min(st.dt_target, cfg.time.end_time - st.t)
+        dt = fit_to_end(st.dt_target, cfg.time.end_time - st.t, cfg.time.dt_min)   # no sliver left
         rate = self.disc.courant_rate()
         if cfg.time.adaptive and rate > 0:
             dt = min(dt, max(cfg.time.cfl / rate, cfg.time.dt_min))
@@ -342,7 +347,7 @@ class Simulation:
         self.timings["mesh_motion"] += time.perf_counter() - t0
         if limit < dt:
             log.debug("t = %.4f s: dt limited by the mesh motion to %.2e s", st.t, limit)
-        if limit < cfg.time.dt_min:
+        if limit < dt and limit < cfg.time.dt_min:   # cut below dt_min (not a last short step)
             if st.step - st.last_remesh_step > 0:
                 self._remesh(f"step limit {limit:.1e} s below dt_min")
                 return self._step()
@@ -382,6 +387,7 @@ class Simulation:
                 break
             self._undo_attempt(token, landed, before_landing)
             if dt / 2 < cfg.time.dt_min:
+                self._refuse_degenerate(dt, report)   # on a mesh below the floor: exit 4
                 raise ConvergenceError(
                     f"the fixed point did not converge at t = {st.t:.4f} s even with dt = "
                     f"{dt:.1e} s (time.dt_min = {cfg.time.dt_min:g}): {report.message}, residual "
@@ -391,6 +397,8 @@ class Simulation:
             self.halvings += 1
             dt /= 2
             domain.recompute(self.disc, dt)
+        if self.controller is not None:
+            self._check_tolerance(dt, error)
         self.disc.flow.accept_step()
         self.courant = dt * rate
         st.t += dt
@@ -407,6 +415,26 @@ class Simulation:
         if st.dt_target < cfg.time.dt:
             st.dt_target = min(cfg.time.dt, 1.5 * st.dt_target)
         return dt, spent, report.residual
+
+    def _check_tolerance(self, dt: float, error: float | None) -> None:
+        """ConvergenceError (exit 3) once TOLERANCE_PATIENCE steps in a row were taken at
+        time.dt_min with a local error above time.tolerance: the tolerance cannot be met."""
+        tol, dt_min = self.cfg.time.tolerance, self.cfg.time.dt_min
+        forced = error is not None and error > tol and dt <= dt_min * (1 + 1e-9)
+        if self.unreachable.record(forced):
+            raise ConvergenceError(
+                f"time.tolerance = {tol:g} cannot be met at t = {self.state.t:.4f} s: the local "
+                f"error stayed above it for {self.unreachable.count} steps in a row at "
+                f"time.dt_min = {dt_min:g} s (last {error:.2e} m/s); use a larger "
+                "time.tolerance or a smaller time.dt_min")
+
+    def _refuse_degenerate(self, dt: float, report) -> None:
+        """A step that failed at dt_min on a mesh that cannot carry a solve (the domain's
+        ``degenerate``) is the mesh's failure (exit 4), not the solver's."""
+        reason = self.domain.degenerate(self.disc)
+        if reason:
+            raise MeshError(f"mesh degenerated at t = {self.state.t:.4f} s: no convergence even "
+                            f"with dt = {dt:.1e} s ({report.message}) on a mesh with a {reason}")
 
     def _undo_attempt(self, token, landed: int, before_landing) -> None:
         """Undo a failed or rejected attempt: the mesh back, the landing rebuild dropped, the
