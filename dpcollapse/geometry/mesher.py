@@ -201,25 +201,35 @@ def generation_limit() -> float:
     return max(floor, GENERATION_MARGIN * _longest_generation)
 
 
-def _mesh_on_root(comm: MPI.Comm, build: Callable) -> TaggedMesh:
-    """Build and generate the gmsh model on rank 0 (``build(gmsh)``), bounded in time
-    (gmsh's frontal mesher can loop forever on a nearly degenerate boundary: exit 4
-    instead of a hang), its failure shared with every rank; then distribute over ``comm``."""
+def generate_bounded(gmsh, build: Callable) -> None:
+    """``build(gmsh)`` (a gmsh model built and meshed), bounded in time: gmsh's frontal mesher
+    can loop forever on a nearly degenerate boundary, or take hours on a mesh far too fine;
+    past :func:`generation_limit` a watchdog thread ends the job with exit 4 (gmsh's Python
+    API is ctypes, which releases the GIL, so a Python thread runs meanwhile)."""
     import time
 
     from dpcollapse import parallel
 
+    global _longest_generation
+    limit = generation_limit()
+    t0 = time.perf_counter()
+    with parallel.time_limit(limit, 4, lambda s: (
+            f"meshing did not finish within {s:g} s (gmsh stuck on a nearly degenerate "
+            "boundary, or asked for more cells than it makes in that time): a smaller "
+            "time.dt or geometry.mesh_size, or a larger numerics.remesh_min_angle (remesh "
+            "sooner), may carry a degenerating boundary further")):
+        build(gmsh)
+    _longest_generation = max(_longest_generation, time.perf_counter() - t0)
+
+
+def _mesh_on_root(comm: MPI.Comm, build: Callable) -> TaggedMesh:
+    """Build and generate the gmsh model on rank 0 (``build(gmsh)``), bounded in time
+    (:func:`generate_bounded`: exit 4 instead of a hang), its failure shared with every
+    rank; then distribute over ``comm``."""
+    from dpcollapse import parallel
+
     def generate(gmsh):
-        global _longest_generation
-        limit = generation_limit()
-        t0 = time.perf_counter()
-        with parallel.time_limit(limit, 4, lambda s: (
-                f"meshing did not finish within {s:g} s (gmsh stuck on a nearly degenerate "
-                "boundary, or asked for more cells than it makes in that time): a smaller "
-                "time.dt or geometry.mesh_size, or a larger numerics.remesh_min_angle (remesh "
-                "sooner), may carry a degenerating boundary further")):
-            build(gmsh)
-        _longest_generation = max(_longest_generation, time.perf_counter() - t0)
+        generate_bounded(gmsh, build)
 
     if comm.rank == 0:
         with gmsh_session() as gmsh:
