@@ -70,7 +70,7 @@ class StepController:
         self.previous_error = None
 
 
-def fit_to_end(step: float, remaining: float, dt_min: float) -> float:
+def fit_to_end(step: float, remaining: float, dt_min: float, slack: float = 1e-12) -> float:
     """The step to take toward an end time ``remaining`` [s] away, aiming at ``step`` [s], so
     that no sliver shorter than ``dt_min`` is left before the end (issue 47: a last step of
     a few ns looked like a degenerate mesh):
@@ -79,10 +79,14 @@ def fit_to_end(step: float, remaining: float, dt_min: float) -> float:
     - ``remaining − step < dt_min`` (a sliver would be left): split the rest in two equal
       steps, each ≥ dt_min and ≤ step, when ``remaining ≥ 2·dt_min``; else (the rest is
       under two smallest steps) the rest in one step, longer than ``step`` by < dt_min;
-    - else ``step``.
+    - else ``step`` (also when the rest exceeds it by at most ``slack``, the time loop's own
+      end tolerance: rounding, not a sliver — a fixed step that lands on the end in floating
+      point keeps its steps).
     """
     if remaining <= step:
         return remaining
+    if remaining - step <= slack:
+        return step
     if remaining - step < dt_min:
         return remaining / 2 if remaining >= 2 * dt_min else remaining
     return step

@@ -102,6 +102,7 @@ def test_fit_to_end_leaves_no_sliver():
     assert fit_to_end(1e-3, 3e-3, 1e-6) == 1e-3                 # far from the end
     assert fit_to_end(1e-3, 1e-3 + 4e-7, 1e-6) == pytest.approx((1e-3 + 4e-7) / 2)
     assert fit_to_end(1e-6, 1.5e-6, 1e-6) == 1.5e-6             # under two smallest steps
+    assert fit_to_end(0.1, 0.1 + 1e-17, 1e-6) == 0.1            # rounding: the step stands
     for step, rest in [(1e-3, 1e-3 + 9.9e-7), (2e-6, 2.5e-6), (1e-3, 1e-3)]:
         first = fit_to_end(step, rest, 1e-6)
         assert first <= max(step, rest) and (rest - first == 0 or rest - first >= 1e-6)
