@@ -29,7 +29,7 @@ from dpcollapse.errors import (  # noqa: E402
     Interrupted,
     OutputError,
 )
-from dpcollapse import parallel, signals  # noqa: E402
+from dpcollapse import parallel, signals, watchdog  # noqa: E402
 from dpcollapse.parallel import PeerFailed, end_together, install_excepthook  # noqa: E402
 
 try:  # an editable install made before dpcollapse/__init__.py existed sees a namespace package
@@ -196,6 +196,9 @@ def run(config: Path, overrides: tuple[str, ...], out: str | None, quiet: bool,
     from dpcollapse.io.rundir import claim_on_root
 
     signals.install()   # again: Open MPI 5's MPI_Init resets SIGINT to its default
+    watchdog.arm()      # a stop request now ends the run within watchdog.STOP_BOUND s
+    if MPI.COMM_WORLD.rank == 0:
+        watchdog.prepare_line("nothing of this run was changed since its last checkpoint")
 
     run_dir = cfg.output.directory if out is None else out
     mode = "resume" if resume else "overwrite" if overwrite else "new"
@@ -551,6 +554,7 @@ def entry() -> None:
     """Console script ``dpcollapse``: SIGTERM is an interrupt from the start (exit 130 with
     one line, also while the run is being set up), as Ctrl-C is."""
     signals.install()
+    watchdog.install()   # idle until the run command arms it
     install_excepthook()
     code = main()
     xdmf = sys.modules.get("dpcollapse.io.xdmf")

@@ -32,7 +32,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from dpcollapse import compat, parallel
+from dpcollapse import compat, parallel, watchdog
 from dpcollapse.config import Config, config_to_dict, save_config
 from dpcollapse.errors import ConfigError, ConvergenceError, DpcollapseError, Interrupted, MeshError
 from dpcollapse.fingerprint import check_identity, config_fingerprint
@@ -145,6 +145,17 @@ class Simulation:
         parallel.agree(self.comm, lambda: self.checkpoint_export.write(
             self.factory, self.disc, {**self.state.to_dict(), "run": self.identity}))
         self.timings["output"] += time.perf_counter() - t0
+        self._prepare_watchdog()
+
+    def _prepare_watchdog(self) -> None:
+        """What ``watchdog`` writes should a stop request find no safe point: run.json
+        ``interrupted``, naming the last checkpoint (rank 0 writes run.json and the line;
+        another rank leaves silently with the same status)."""
+        st = self.state
+        where = (f"the last checkpoint (step {st.checkpoint_step}, t = {st.t:.4f} s) is whole"
+                 if st.checkpoint_step is not None else "no checkpoint was written yet")
+        if self.comm.rank == 0:
+            watchdog.prepare(self.info.path, self.info.data, where)
 
     def _remesh(self, reason: str) -> None:
         t0 = time.perf_counter()
@@ -206,7 +217,7 @@ class Simulation:
         self.timings["mesh_motion"] += time.perf_counter() - t0
         if limit < dt:
             log.debug("t = %.4f s: dt limited by the mesh motion to %.2e s", st.t, limit)
-        if limit < cfg.time.dt_min:
+        if limit < dt and limit < cfg.time.dt_min:   # cut below dt_min (not a last short step)
             if st.step - st.last_remesh_step > 0:
                 self._remesh(f"step limit {limit:.1e} s below dt_min")
                 return self._step()
@@ -239,6 +250,7 @@ class Simulation:
                 break
             self._undo_attempt(token, retagged, before_landing)
             if dt / 2 < cfg.time.dt_min:
+                self._refuse_degenerate(dt, report)   # on a mesh below the floor: exit 4
                 raise ConvergenceError(
                     f"the fixed point did not converge at t = {st.t:.4f} s even with dt = "
                     f"{dt:.1e} s (time.dt_min = {cfg.time.dt_min:g}): {report.message}, residual "
@@ -248,6 +260,7 @@ class Simulation:
             self.halvings += 1
             dt /= 2
             domain.recompute(self.disc, dt)
+        self.steps.check_reachable(dt, st.t)   # time.tolerance met at dt_min, else exit 3
         self.disc.flow.accept_step()
         self.courant = dt * rate
         st.t += dt
@@ -255,6 +268,14 @@ class Simulation:
         st.dt_target = self.steps.next_target(dt, st.dt_target, report.iterations,
                                               self.disc.flow.iteration_scale, model_limit)
         return dt, spent, report.residual
+
+    def _refuse_degenerate(self, dt: float, report) -> None:
+        """A step that failed at dt_min on a mesh that cannot carry a solve (the domain's
+        ``degenerate``) is the mesh's failure (exit 4), not the solver's."""
+        reason = self.domain.degenerate(self.disc)
+        if reason:
+            raise MeshError(f"mesh degenerated at t = {self.state.t:.4f} s: no convergence even "
+                            f"with dt = {dt:.1e} s ({report.message}) on a mesh with a {reason}")
 
     def _undo_attempt(self, token, retagged, before_landing) -> None:
         """Undo a failed or rejected attempt: the mesh back, the rebuild on new facet tags
@@ -278,6 +299,7 @@ class Simulation:
         # ended at once (a rank failed alone, a stuck mesher): run.json says so, from this rank
         abort_hook = parallel.on_abort(self.info.record_abort)
         agreed_stop = False   # an interrupt every rank agreed on (the ranks are in step)
+        self._prepare_watchdog()
         try:
             while st.t < cfg.time.end_time - 1e-12:
                 dt, iterations, residual = self._step()
@@ -313,6 +335,7 @@ class Simulation:
                 if at_rest or stop:
                     st.status = "at_rest" if at_rest else "stopped_by_observer"
                     break
+                watchdog.safe_point()   # a stop request is honoured here (else the watchdog)
                 if stop_request.requested(self.comm):   # after an accepted step: save it
                     self._output()
                     self._checkpoint()

@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import logging
 
-from dpcollapse.solvers.step_control import StepController
+from dpcollapse.errors import ConvergenceError
+from dpcollapse.solvers.step_control import StepController, ToleranceUnreachable, fit_to_end
 
 log = logging.getLogger("dpcollapse")
 
@@ -28,6 +29,10 @@ FEW_ITERATIONS = 3
 #: ... and the shrink factor after a fixed point of more than this many iterations.
 STEP_SHRINK = 0.7
 MANY_ITERATIONS = 12
+#: time.tolerance: consecutive steps at time.dt_min above the tolerance before the run ends
+#: (exit 3): the controller reaches dt_min within a few rejections (×0.2 each), so 20 steps
+#: there mean the tolerance is out of reach, not a transient.
+TOLERANCE_PATIENCE = 20
 
 
 class StepSize:
@@ -40,6 +45,7 @@ class StepSize:
         if self.controller is not None and controller_record is not None:
             self.controller.restore(controller_record)   # resumed
         self.error = None   # the local error estimate of the accepted step
+        self.unreachable = ToleranceUnreachable(TOLERANCE_PATIENCE)   # steps at dt_min above it
 
     @property
     def rejected(self) -> int:
@@ -49,7 +55,7 @@ class StepSize:
     def first_try(self, target: float, time_left: float, rate: float) -> float:
         """The step to try before the domain's and the model's limits [s]."""
         self.error = None
-        dt = min(target, time_left)
+        dt = fit_to_end(target, time_left, self.time.dt_min)   # no sliver left before the end
         if self.time.adaptive and rate > 0:
             dt = min(dt, max(self.time.cfl / rate, self.time.dt_min))
         return dt
@@ -66,6 +72,20 @@ class StepSize:
         log.debug("t = %.4f s: step %.2e s rejected (local error %.2e m/s > %.2e); retried "
                   "with %.2e s", t, dt, error, self.time.tolerance, retry)
         return retry
+
+    def check_reachable(self, dt: float, t: float) -> None:
+        """ConvergenceError (exit 3) once TOLERANCE_PATIENCE steps in a row were accepted at
+        time.dt_min with a local error above time.tolerance: the tolerance cannot be met."""
+        if self.controller is None:
+            return
+        tol, dt_min, error = self.time.tolerance, self.time.dt_min, self.error
+        forced = error is not None and error > tol and dt <= dt_min * (1 + 1e-9)
+        if self.unreachable.record(forced):
+            raise ConvergenceError(
+                f"time.tolerance = {tol:g} cannot be met at t = {t:.4f} s: the local "
+                f"error stayed above it for {self.unreachable.count} steps in a row at "
+                f"time.dt_min = {dt_min:g} s (last {error:.2e} m/s); use a larger "
+                "time.tolerance or a smaller time.dt_min")
 
     def next_target(self, dt: float, target: float, iterations: int, scale: float,
                     model_limit: float) -> float:

@@ -44,6 +44,10 @@ class Domain(Protocol):
     def needs_remesh(self, disc, state) -> str | None:
         """Why the mesh must be rebuilt now, or None."""
 
+    def degenerate(self, disc) -> str | None:
+        """Why the current mesh cannot carry a solve (the moving domain: a smallest angle
+        below its floor), or None."""
+
     def remesh(self, tagged, area0: float):
         """A new mesh of the current boundary: (tagged mesh, boundary vertices)."""
 

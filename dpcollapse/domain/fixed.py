@@ -37,6 +37,9 @@ class FixedDomain:
     def needs_remesh(self, disc, state) -> None:
         return None
 
+    def degenerate(self, disc) -> None:
+        return None
+
     def remesh(self, tagged, area0: float):
         raise NotImplementedError("a fixed domain is never remeshed")
 

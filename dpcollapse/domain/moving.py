@@ -10,6 +10,12 @@ so that the same mesh is not rebuilt every REMESH_COOLDOWN steps.
 Events (``loop.EventSource``): ``landings``, the free-surface nodes of the nose that came
 down on the bed in accepted moves. Check of an accepted step (``check_step``): the energy
 balance of a closed mass moving with the mesh.
+
+No solve on a mesh that cannot carry one (issue 47): a mesh whose smallest angle is below
+MIN_ANGLE_FLOOR (or with non-finite node coordinates) is remeshed at the next step whatever
+the cool-down; a remesh that cannot lift it above the floor (the boundary itself is
+degenerate: a film or a spike thinner than the cells) ends the run, MeshError (exit 4),
+before the new mesh is used.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ from __future__ import annotations
 import logging
 import math
 
+from dpcollapse import compat
 from dpcollapse.ale.motion import quality, retag_landed
 from dpcollapse.domain.region_remesh import remesh_regions
 from dpcollapse.errors import MeshError
@@ -32,6 +39,12 @@ REMESH_COOLDOWN = 5
 #: After a remesh that left an angle below the threshold, remesh again only when the
 #: smallest angle has dropped below this fraction of the angle the remesh left.
 REMESH_DEGRADATION = 0.9
+#: The smallest cell angle [deg] a mesh may have and still be solved on. A triangle of
+#: smallest angle θ has a stiffness condition number ~ 1/sin²θ (3 300 at 1°); the healthy
+#: runs measured stay above it (the μ(I) ladder's thinnest toe: 1.7°), the degenerating
+#: 40° μ(I) bed went 3.1° → 0.5° → 0.0° over three remeshes, the last one 267 251 cells
+#: (from 1 536) on which MUMPS's symbolic analysis never returned.
+MIN_ANGLE_FLOOR = 1.0
 
 log = logging.getLogger("dpcollapse")
 
@@ -106,8 +119,15 @@ class MovingDomain:
                 f"{m['min_angle']:.2f}°: the mass is likely thinner than geometry.mesh_size = "
                 f"{self.mesh_size:g} m somewhere — use a finer mesh or a shorter time.end_time")
 
+    def degenerate(self, disc) -> str | None:
+        """Why the current mesh cannot carry a solve (smallest angle below
+        MIN_ANGLE_FLOOR, non-finite nodes), or None."""
+        return _below_floor(quality(disc.mesh)["min_angle"])
+
     def needs_remesh(self, disc, state) -> str | None:
         q = quality(disc.mesh)
+        if _below_floor(q["min_angle"]) and state.last_remesh_step != state.step:
+            return f"min angle {q['min_angle']:.2f}° below the floor {MIN_ANGLE_FLOOR:g}°"
         since = state.step - state.last_remesh_step
         after = state.remesh_angle_after if state.remesh_angle_after is not None else math.inf
         threshold = min(self.remesh_min_angle, REMESH_DEGRADATION * after)
@@ -127,6 +147,13 @@ class MovingDomain:
                                             self.conserve_area)
         except ValueError as exc:   # the boundary is no longer one closed loop
             raise MeshError(f"mesh degenerate: cannot remesh, {exc}") from exc
+        reason = _below_floor(quality(new.mesh)["min_angle"])
+        if reason:
+            cells = new.mesh.comm.allreduce(compat.num_owned_cells(new.mesh))
+            raise MeshError(f"mesh degenerated: the remesh of the current boundary left a {reason} "
+                            f"({cells} cells): the boundary itself is "
+                            "degenerate (a film or spike thinner than the cells); no solve is "
+                            "attempted on it")
         return new, nverts
 
     def remeshed(self, disc, state) -> None:
@@ -138,3 +165,12 @@ class MovingDomain:
             log.warning("remesh %d: the new mesh's smallest angle is %.1f° (< %g°, set by the "
                         "boundary); the next remesh waits until it drops below %.1f°",
                         state.remeshes, after, self.remesh_min_angle, REMESH_DEGRADATION * after)
+
+
+def _below_floor(min_angle: float) -> str | None:
+    """The reason a mesh of smallest angle ``min_angle`` [deg] cannot be solved on, or None."""
+    if not math.isfinite(min_angle):
+        return "non-finite node coordinate"
+    if min_angle < MIN_ANGLE_FLOOR:
+        return f"smallest angle of {min_angle:.2f}° (< the floor {MIN_ANGLE_FLOOR:g}°)"
+    return None

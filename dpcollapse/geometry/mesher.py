@@ -48,16 +48,55 @@ class TaggedMesh:
 
 @contextmanager
 def gmsh_session():
-    """Initialise gmsh quietly on this rank and finalise it afterwards."""
+    """Initialise gmsh quietly on this rank and finalise it afterwards.
+
+    gmsh never asks: ``General.NoPopup`` answers its questions with their default (its
+    "very large mesh. Do you really want to continue?" printed the question and read the
+    answer from stdin, issue 47), and stdin is /dev/null while the session lasts."""
     import gmsh
 
-    gmsh.initialize()
-    gmsh.option.setNumber("General.Terminal", 0)
-    gmsh.option.setNumber("General.Verbosity", 0)
+    with _stdin_closed():
+        gmsh.initialize(**_quiet_initialize_options(gmsh))
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.Verbosity", 0)
+        gmsh.option.setNumber("General.NoPopup", 1)
+        try:
+            yield gmsh
+        finally:
+            gmsh.finalize()
+
+
+def _quiet_initialize_options(gmsh) -> dict:
+    """No user configuration files (their options could re-enable questions); where gmsh
+    has it (>= 4.10), ``interruptible=False``: gmsh would otherwise put SIGINT back to its
+    default action (killed at once, no run.json) while it runs."""
+    import inspect
+
+    names = inspect.signature(gmsh.initialize).parameters
+    options = {"readConfigFiles": False} if "readConfigFiles" in names else {}
+    if "interruptible" in names:
+        options["interruptible"] = False
+    return options
+
+
+@contextmanager
+def _stdin_closed():
+    """File descriptor 0 reads /dev/null (end of file at once) inside the block."""
+    import os
+
     try:
-        yield gmsh
+        saved = os.dup(0)
+    except OSError:          # no stdin at all: nothing can be read from it
+        yield
+        return
+    null = os.open(os.devnull, os.O_RDONLY)
+    try:
+        os.dup2(null, 0)
+        yield
     finally:
-        gmsh.finalize()
+        os.dup2(saved, 0)
+        os.close(saved)
+        os.close(null)
 
 
 def build_polygon_model(gmsh, points: np.ndarray, edge_tags: np.ndarray,
@@ -162,24 +201,35 @@ def generation_limit() -> float:
     return max(floor, GENERATION_MARGIN * _longest_generation)
 
 
-def _mesh_on_root(comm: MPI.Comm, build: Callable) -> TaggedMesh:
-    """Build and generate the gmsh model on rank 0 (``build(gmsh)``), bounded in time
-    (gmsh's frontal mesher can loop forever on a nearly degenerate boundary: exit 4
-    instead of a hang), its failure shared with every rank; then distribute over ``comm``."""
+def generate_bounded(gmsh, build: Callable) -> None:
+    """``build(gmsh)`` (a gmsh model built and meshed), bounded in time: gmsh's frontal mesher
+    can loop forever on a nearly degenerate boundary, or take hours on a mesh far too fine;
+    past :func:`generation_limit` a watchdog thread ends the job with exit 4 (gmsh's Python
+    API is ctypes, which releases the GIL, so a Python thread runs meanwhile)."""
     import time
 
     from dpcollapse import parallel
 
+    global _longest_generation
+    limit = generation_limit()
+    t0 = time.perf_counter()
+    with parallel.time_limit(limit, 4, lambda s: (
+            f"meshing did not finish within {s:g} s (gmsh stuck on a nearly degenerate "
+            "boundary, or asked for more cells than it makes in that time): a smaller "
+            "time.dt or geometry.mesh_size, or a larger numerics.remesh_min_angle (remesh "
+            "sooner), may carry a degenerating boundary further")):
+        build(gmsh)
+    _longest_generation = max(_longest_generation, time.perf_counter() - t0)
+
+
+def _mesh_on_root(comm: MPI.Comm, build: Callable) -> TaggedMesh:
+    """Build and generate the gmsh model on rank 0 (``build(gmsh)``), bounded in time
+    (:func:`generate_bounded`: exit 4 instead of a hang), its failure shared with every
+    rank; then distribute over ``comm``."""
+    from dpcollapse import parallel
+
     def generate(gmsh):
-        global _longest_generation
-        limit = generation_limit()
-        t0 = time.perf_counter()
-        with parallel.time_limit(limit, 4, lambda s: (
-                f"meshing did not finish within {s:g} s (gmsh stuck on a nearly degenerate "
-                "boundary): a smaller time.dt or geometry.mesh_size, or a larger "
-                "numerics.remesh_min_angle (remesh sooner), may carry it further")):
-            build(gmsh)
-        _longest_generation = max(_longest_generation, time.perf_counter() - t0)
+        generate_bounded(gmsh, build)
 
     if comm.rank == 0:
         with gmsh_session() as gmsh:

@@ -14,9 +14,23 @@ under MPI.
 
 from __future__ import annotations
 
+import math
 import time
 
 from petsc4py import PETSc
+
+
+class NonFiniteSystem(RuntimeError):
+    """A matrix or right-hand side with a NaN or Inf entry, refused before it is factorized
+    (MUMPS's symbolic analysis of such a matrix was seen never to return: issue 47). A
+    RuntimeError, as a failed factorization is: the caller's step fails and is retried."""
+
+
+def require_finite(kind: str, norm: float) -> None:
+    """Raise :class:`NonFiniteSystem` unless ``norm`` (a Frobenius or 2-norm, collective:
+    every rank sees the same value) is finite."""
+    if not math.isfinite(norm):
+        raise NonFiniteSystem(f"non-finite {kind} (norm {norm}): refused before the solve")
 
 
 class DirectSolver:
@@ -71,6 +85,7 @@ class DirectSolver:
         self.solve_iterations: list[int] = []
         self.seconds = {"factorization": 0.0, "solve": 0.0}
         self._setup_due = False
+        self._operator = None
 
     def set_operator(self, A: PETSc.Mat, refactor: bool = True) -> None:
         """Give a (re)assembled matrix; the next solve refactorizes it unless ``refactor``
@@ -82,12 +97,17 @@ class DirectSolver:
             if self.positive_definite:
                 A.setOption(PETSc.Mat.Option.SPD, True)   # MUMPS: SYM = 1, no pivoting
         self.ksp.setOperators(A)
+        self._operator = A
         if not reuse:
             self.factorizations += 1
             self._setup_due = True
 
     def solve(self, b: PETSc.Vec, x: PETSc.Vec) -> None:
+        """x = A⁻¹ b. A matrix (at its factorization) or a b with a NaN/Inf entry raises
+        :class:`NonFiniteSystem` before MUMPS sees it."""
+        require_finite("right-hand side", b.norm())
         if self._setup_due:   # the LU factorization, timed on its own
+            require_finite("matrix", self._operator.norm(PETSc.NormType.FROBENIUS))
             t0 = time.perf_counter()
             self._setup_due = False
             self.ksp.setUp()

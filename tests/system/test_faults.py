@@ -391,3 +391,81 @@ def test_a_lost_start_up_signal_stops_the_loop_after_its_first_step(tmp_path, mo
     assert read_diagnostics(out / "diagnostics.csv")["step"][-1] == 1
     assert json.loads((out / "run.json").read_text())["status"] == "interrupted"
     assert_whole(out)
+
+
+def test_a_remesh_that_leaves_a_sliver_ends_the_run_before_any_solve_on_it(tmp_path, capsys,
+                                                                           monkeypatch):
+    """A remesh whose new mesh has a smallest angle below the floor (the 40° μ(I) bed, issue
+    47: 3.1°, 0.5°, then 0.0° on 267 251 cells, where MUMPS never returned): exit 4 "mesh
+    degenerated", one line, run.json failed, and no solve on the new mesh. The sliver is
+    injected by flattening one cell of the first remesh's mesh."""
+    from dpcollapse import compat
+    from dpcollapse.domain import moving
+    from dpcollapse.models.stokes.regularized import RegularizedFlow
+
+    original = moving.remesh_regions
+
+    def remesh(*args, **kwargs):
+        new, area, nverts = original(*args, **kwargs)
+        x = new.mesh.geometry.x
+        a, b, c = compat.geometry_dofmap(new.mesh)[0][:3]
+        x[c, :2] = 0.5 * (x[a, :2] + x[b, :2]) + 1e-4 * (x[c, :2] - 0.5 * (x[a, :2] + x[b, :2]))
+        return new, area, nverts
+
+    solves = {"after": 0}
+    remeshed = {"done": False}
+    original_solve = RegularizedFlow.solve_step
+
+    def solve_step(self, dt):
+        solves["after"] += remeshed["done"]
+        return original_solve(self, dt)
+
+    def counting(*args, **kwargs):
+        remeshed["done"] = True
+        return remesh(*args, **kwargs)
+
+    monkeypatch.setattr(moving, "remesh_regions", counting)
+    monkeypatch.setattr(RegularizedFlow, "solve_step", solve_step)
+    out = tmp_path / "run"
+    assert _run(out, "--set", "numerics.remesh_min_angle=59", end=0.05) == 4
+    line = _one_error_line(capsys.readouterr().err)
+    assert "mesh degenerated" in line and "< the floor 1°" in line and "after t = " in line
+    assert solves["after"] == 0
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "failed" and "floor" in info["summary"]["error"]
+
+
+@pytest.mark.parametrize("below_floor", [True, False])
+def test_no_convergence_on_a_mesh_below_the_floor_is_a_mesh_failure(tmp_path, capsys,
+                                                                     monkeypatch, below_floor):
+    """A step that fails down to dt_min on a mesh below the angle floor is exit 4 "mesh
+    degenerated" (issue 47: exit 3 "try a larger numerics.max_iterations" at 0.02°); on a
+    healthy mesh it stays exit 3. Non-convergence from the fourth step on and the mesh's
+    verdict (``MovingDomain.degenerate``) are injected."""
+    from dpcollapse.domain.moving import MovingDomain
+    from dpcollapse.models.stokes.regularized import RegularizedFlow
+    from dpcollapse.models.stokes.state import StepReport
+
+    original, calls = RegularizedFlow.solve_step, {"n": 0}
+
+    def solve_step(self, dt):
+        calls["n"] += 1
+        if calls["n"] > 3:
+            return StepReport(False, 5, 1.0, "injected divergence")
+        return original(self, dt)
+
+    monkeypatch.setattr(RegularizedFlow, "solve_step", solve_step)
+    if below_floor:
+        monkeypatch.setattr(MovingDomain, "degenerate",
+                            lambda self, disc: "smallest angle of 0.02° (< the floor 1°)")
+    out = tmp_path / "run"
+    code = _run(out, "--set", "time.dt_min=2.5e-4", end=0.05)
+    err = capsys.readouterr().err      # the halvings' warnings, then the error's one line
+    errors = [ln for ln in err.splitlines() if ln.startswith("dpcollapse: error: ")]
+    assert len(errors) == 1 and "Traceback" not in err, err
+    line = errors[0]
+    if below_floor:
+        assert code == 4 and "mesh degenerated" in line and "0.02°" in line
+        assert "max_iterations" not in line
+    else:
+        assert code == 3 and "max_iterations" in line

@@ -63,6 +63,19 @@ _LAUNCHER = textwrap.dedent("""
                 comm.Barrier()                  # never completes: rank 1 does not come
             return original(comm, *args, **kwargs)
         compat.write_xdmf_step = write
+    elif fault == "stuck_in_c":             # a step that never returns, inside C with the
+        import ctypes                       # GIL held (MUMPS on a degenerate mesh): a mutex
+        from dpcollapse.simulation import Simulation    # locked twice, deaf to signals
+        original, calls = Simulation._check_energy, [0]
+        def check(self, m):
+            calls[0] += 1
+            if calls[0] == 4:
+                open(os.environ["DPC_STUCK_FILE"] + f".{rank}", "w").close()
+                mutex = ctypes.create_string_buffer(64)
+                ctypes.PyDLL(None).pthread_mutex_lock(mutex)
+                ctypes.PyDLL(None).pthread_mutex_lock(mutex)
+            return original(self, m)
+        Simulation._check_energy = check
     from dpcollapse.cli import entry
     sys.argv = ["dpcollapse", *sys.argv[1:]]
     entry()
@@ -198,3 +211,53 @@ def _children(pid: int) -> list[int]:
         if b"launch.py" in cmdline and b"mpirun" not in cmdline and b"mpiexec" not in cmdline:
             ranks.append(child)
     return ranks
+
+
+def _stop_a_stuck_run(tmp_path, ranks: int):
+    """Start the run with a step that never returns (``stuck_in_c``: inside C, the GIL
+    held, deaf to signals), SIGTERM every rank once all are stuck; (process, seconds from
+    the signal to the end, run directory)."""
+    out = tmp_path / "run"
+    stuck = tmp_path / "stuck"
+    args = ["run", RIGID, *TINY, "--set", "time.end_time=0.2", "--out", out, "--quiet"]
+    env = _env(DPC_FAULT="stuck_in_c", DPC_STUCK_FILE=str(stuck), DPCOLLAPSE_STOP_BOUND="3")
+    launcher = tmp_path / "launch.py"
+    launcher.write_text(_LAUNCHER)
+    cmd = [sys.executable, str(launcher), *map(str, args)]
+    if ranks > 1:
+        cmd = ["mpirun", "-n", str(ranks), *cmd]
+    proc = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 240
+    while time.time() < deadline and not all(
+            Path(f"{stuck}.{r}").exists() for r in range(ranks)):
+        time.sleep(0.1)
+    time.sleep(0.5)
+    pids = _children(proc.pid) if ranks > 1 else [proc.pid]
+    assert len(pids) == ranks
+    t0 = time.monotonic()
+    for pid in pids:
+        os.kill(pid, signal.SIGTERM)
+    proc.stdout_text, proc.stderr_text = proc.communicate(timeout=120)
+    return proc, time.monotonic() - t0, out
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_a_stop_request_ends_a_step_that_never_returns(tmp_path, ranks):
+    """SIGTERM while the main thread is stuck inside C with the GIL held (MUMPS on a
+    degenerate mesh, issue 47: the handler never ran, the run never ended): the watchdog
+    ends the run 3 s (DPCOLLAPSE_STOP_BOUND) after the signal, exit 130, one line, run.json
+    ``interrupted`` with the reason, and --resume continues from the last checkpoint."""
+    proc, seconds, out = _stop_a_stuck_run(tmp_path, ranks)
+    assert proc.returncode == 130, proc.stderr_text[-3000:]
+    assert 3 <= seconds < 30
+    lines = _our_lines(proc.stderr_text)
+    assert len(lines) == 1 and "within 3 s of the stop request" in lines[0], proc.stderr_text
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "interrupted" and "stop request" in info["summary"]["error"]
+    resumed = subprocess.run(
+        [sys.executable, "-m", "dpcollapse.cli", "run", RIGID, *TINY, "--set",
+         "time.end_time=0.008", "--out", str(out), "--quiet", "--resume"],
+        env=_env(), cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    assert json.loads((out / "run.json").read_text())["status"] == "end_time"

@@ -1,13 +1,15 @@
 """Time-step control: the Courant rate, adaptive growth at rest, the Courant bound in the
 diagnostics, and resuming an adaptive run."""
 
+import json
+
 import numpy as np
 import pytest
 
 from dpcollapse.ale.quality import courant_rate
 from dpcollapse.io.diagnostics import read_diagnostics
 from dpcollapse.simulation import FEW_ITERATIONS, STEP_GROWTH
-from tests.helpers import RIGID_BDF1, simulation
+from tests.helpers import RIGID_BDF1, ROOT, simulation
 
 
 def _sim(config, overrides, run_dir, resume=False):
@@ -89,3 +91,65 @@ def test_adaptive_resume_continues_the_run(tmp_path):
     assert len(set(np.round(full["dt"], 12))) > 3   # the step did adapt
     for key in ("t", "dt", "front", "kinetic_energy"):
         np.testing.assert_allclose(resumed[key], full[key], rtol=1e-6, atol=1e-12, err_msg=key)
+
+
+def test_fit_to_end_leaves_no_sliver():
+    """The step toward the end time: the rest when it fits; split in two equal steps when a
+    sliver under dt_min would be left; the rest in one step when it is under 2·dt_min."""
+    from dpcollapse.solvers.step_control import fit_to_end
+
+    assert fit_to_end(1e-3, 5e-4, 1e-6) == 5e-4                 # the rest fits
+    assert fit_to_end(1e-3, 3e-3, 1e-6) == 1e-3                 # far from the end
+    assert fit_to_end(1e-3, 1e-3 + 4e-7, 1e-6) == pytest.approx((1e-3 + 4e-7) / 2)
+    assert fit_to_end(1e-6, 1.5e-6, 1e-6) == 1.5e-6             # under two smallest steps
+    assert fit_to_end(0.1, 0.1 + 1e-17, 1e-6) == 0.1            # rounding: the step stands
+    for step, rest in [(1e-3, 1e-3 + 9.9e-7), (2e-6, 2.5e-6), (1e-3, 1e-3)]:
+        first = fit_to_end(step, rest, 1e-6)
+        assert first <= max(step, rest) and (rest - first == 0 or rest - first >= 1e-6)
+
+
+_SLIVER_END = 0.016307636533677877   # issue 47: a variable step landed < dt_min before it
+
+
+def test_an_end_time_just_past_a_step_ends_the_run_at_it(tmp_path, capsys):
+    """The issue's case (rigid collapse at 4 cm, error-controlled BDF2): it used to end with
+    exit 4 "mesh degenerate" — the last sliver of time, shorter than time.dt_min, was taken
+    for a mesh-motion limit. Now exit 0, status end_time, no step under dt_min; and the
+    same on a resume to a new end time just past the resumed run's next step."""
+    from dpcollapse.cli import main
+
+    out = tmp_path / "run"
+    args = ["run", str(ROOT / "configs" / "rigid.yaml"), "--set", "geometry.mesh_size=0.04",
+            "--out", str(out), "--quiet"]
+    assert main([*args, "--set", f"time.end_time={_SLIVER_END}"]) == 0, capsys.readouterr().err
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "end_time" and info["summary"]["t"] == pytest.approx(_SLIVER_END)
+    d = read_diagnostics(out / "diagnostics.csv")
+    assert min(d["dt"]) >= 1e-6
+    end = d["t"][-1] + d["dt"][-1] + 4e-7       # one more step of that size leaves 0.4 µs
+    assert main([*args, "--set", f"time.end_time={end!r}", "--resume"]) == 0, \
+        capsys.readouterr().err
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "end_time" and info["summary"]["t"] == pytest.approx(end)
+    assert min(read_diagnostics(out / "diagnostics.csv")["dt"]) >= 1e-6
+
+
+def test_a_tolerance_out_of_reach_at_dt_min_ends_with_its_own_error(tmp_path, capsys):
+    """time.tolerance = 1e-12 (issue 47: 7 002 silent steps at dt_min, then exit 4): the run
+    ends with exit 3 and one line naming time.tolerance once TOLERANCE_PATIENCE steps in a
+    row were taken at dt_min above it."""
+    from dpcollapse.cli import main
+    from dpcollapse.step_size import TOLERANCE_PATIENCE
+
+    out = tmp_path / "run"
+    code = main(["run", str(ROOT / "configs" / "rigid.yaml"), "--set", "geometry.mesh_size=0.04",
+                 "--set", "time.tolerance=1e-12", "--set", "time.end_time=0.01", "--out",
+                 str(out), "--quiet"])
+    err = capsys.readouterr().err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert code == 3 and len(lines) == 1 and "Traceback" not in err, err
+    assert "time.tolerance = 1e-12 cannot be met" in lines[0] and "time.dt_min" in lines[0]
+    d = read_diagnostics(out / "diagnostics.csv")
+    assert TOLERANCE_PATIENCE - 1 <= sum(dt <= 1e-6 * (1 + 1e-9) for dt in d["dt"]) < 100
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "failed" and "time.tolerance" in info["summary"]["error"]

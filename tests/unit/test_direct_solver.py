@@ -68,3 +68,26 @@ def test_the_mesh_velocity_by_cholesky_equals_lu():
     lu.destroy()
     motion.destroy()
     flow.destroy()
+
+
+@pytest.mark.parametrize("where", ["matrix", "right-hand side"])
+def test_a_non_finite_system_is_refused_before_the_factorization(where):
+    """A NaN in the matrix or an Inf in b (issue 47: MUMPS's symbolic analysis of such a
+    matrix never returned) raises NonFiniteSystem, a RuntimeError: the step's attempt fails
+    and is retried shorter, as after a failed factorization."""
+    from dpcollapse.solvers.linear import NonFiniteSystem
+
+    dense = 4.0 * np.eye(6) + np.diag(np.ones(5), 1) + np.diag(np.ones(5), -1)
+    if where == "matrix":
+        dense[2, 3] = np.nan
+    A = petsc_matrix(dense)
+    b = A.createVecLeft()
+    b.array[:] = 1.0
+    if where != "matrix":
+        b.array[4] = np.inf
+    solver = DirectSolver(MPI.COMM_SELF, "mumps", prefix=f"test_nan_{where[0]}_")
+    solver.set_operator(A)
+    with pytest.raises(NonFiniteSystem, match=f"non-finite {where}"):
+        solver.solve(b, A.createVecRight())
+    assert isinstance(NonFiniteSystem("x"), RuntimeError)
+    solver.destroy()

@@ -85,3 +85,19 @@ def test_remesh_keeps_the_cell_count(comm):
     new, _, _ = remesh_domain(coarse, 0.02, None, 1e-9)
     assert count(new.mesh) == pytest.approx(count(direct.mesh), rel=0.15)
     assert _area(new.mesh) == pytest.approx(_area(coarse.mesh), rel=1e-9)
+
+
+def test_gmsh_never_asks_and_never_reads_stdin():
+    """Inside a gmsh session gmsh answers its own questions (General.NoPopup: its "very
+    large mesh. Do you really want to continue?" read the answer from stdin, issue 47) and
+    file descriptor 0 is /dev/null; after it, stdin is the caller's again."""
+    import os
+
+    from dpcollapse.geometry.mesher import gmsh_session
+
+    before = os.fstat(0)
+    with gmsh_session() as gmsh:
+        assert gmsh.option.getNumber("General.NoPopup") == 1
+        assert os.path.samestat(os.fstat(0), os.stat(os.devnull))
+        assert os.read(0, 1) == b""
+    assert os.path.samestat(os.fstat(0), before)

@@ -63,3 +63,34 @@ def test_absent_keys_and_equal_sizes_give_the_uniform_box():
 def test_min_cell_above_max_cell_is_one_line():
     with pytest.raises(ConfigError, match="model.min_cell = 0.03: must be <= model.max_cell"):
         load_config(CONFIG, ["model.min_cell=0.03", "model.max_cell=0.02"])
+
+
+def test_a_box_mesher_that_never_returns_is_a_mesh_failure(tmp_path):
+    """The adaptive box's gmsh generation has the same time bound as every other
+    (``mesher.generate_bounded``, issue 47: it had none): exit 4 and one line once
+    DPCOLLAPSE_MESH_TIME_LIMIT has passed. The hang is injected in a child process (the
+    bound ends the process)."""
+    import subprocess
+    import sys
+    import textwrap
+    import time
+
+    from tests.helpers import ROOT, clean_env
+
+    script = textwrap.dedent("""
+        import time
+        import numpy as np
+        from mpi4py import MPI
+        from dpcollapse.models.two_phase import adaptive
+        adaptive._build_box_model = lambda *args, **kwargs: time.sleep(3600)
+        size = adaptive.SizeField(0.01, 0.05, band=0.04, grading=0.5)
+        adaptive.adaptive_box(MPI.COMM_WORLD, 0.4, 0.2, size, np.array([[0.1, 0.05]]))
+    """)
+    env = {**clean_env(), "DPCOLLAPSE_MESH_TIME_LIMIT": "2"}
+    t0 = time.monotonic()
+    done = subprocess.run([sys.executable, "-c", script], env=env, cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 4, done.stderr[-2000:]
+    assert time.monotonic() - t0 < 60
+    lines = [ln for ln in done.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "meshing did not finish within 2 s" in lines[0], done.stderr

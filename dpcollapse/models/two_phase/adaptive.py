@@ -30,7 +30,8 @@ from scipy.spatial import cKDTree
 
 from dpcollapse import compat
 from dpcollapse.domain.fixed import FixedDomain
-from dpcollapse.geometry.mesher import BED, DOMAIN, LEFT, RIGHT, SURFACE, TAG_NAMES, TaggedMesh, gmsh_session
+from dpcollapse.geometry.mesher import (BED, DOMAIN, LEFT, RIGHT, SURFACE, TAG_NAMES, TaggedMesh,
+                                        generate_bounded, gmsh_session)
 from dpcollapse.models.two_phase.fraction import owned_triangles
 from dpcollapse.models.two_phase.remap import triangle_areas
 
@@ -110,7 +111,8 @@ def adaptive_box(comm, length: float, height: float, size: SizeField,
         grid = background_grid(length, height, spacing)
         sizes = size(grid.reshape(-1, 2), granular).reshape(-1, 3)
         with gmsh_session() as gmsh:
-            _build_box_model(gmsh, length, height, grid, sizes, size.max_cell)
+            generate_bounded(gmsh, lambda g: _build_box_model(g, length, height, grid, sizes,
+                                                             size.max_cell))   # exit 4, no hang
             mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2, shared_facets=True)
     else:
         mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2, shared_facets=True)
