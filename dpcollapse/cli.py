@@ -522,10 +522,19 @@ def _error(message: str) -> None:
         click.echo("dpcollapse: error: " + " ".join(str(message).split()), err=True)
 
 
+#: Appended to an interrupt's line under MPI: a signal to Open MPI's mpirun makes mpirun
+#: itself exit 1 whatever the ranks return, and kills the ranks odls_base_sigkill_timeout
+#: (1 s) after it forwarded the signal (measured with Open MPI 4.1.4, docs/reliability.md).
+MPI_INTERRUPT_NOTE = ("; under mpirun its own exit status is the launcher's (Open MPI's: 1 when "
+                      "it was signalled): run.json's status says how the run ended")
+
+
 def _fail(message: str, exit_code: int, peer: bool = False) -> int:
     """Report an error and return its exit status. Under MPI the other ranks are told
     (``peer``: the error is another rank's) and must end too; when one cannot, the whole
     job is aborted instead (:mod:`dpcollapse.parallel`)."""
+    if exit_code == Interrupted.exit_code and parallel.several_ranks():
+        message = f"{message}{MPI_INTERRUPT_NOTE}"
     end_together(exit_code, " ".join(str(message).split()), peer=peer)
     _error(message)
     return exit_code

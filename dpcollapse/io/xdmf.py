@@ -247,6 +247,7 @@ class XDMFTimeSeries:
                 if self.comm.rank == 0:
                     for path in (step_xdmf, step_xdmf.with_suffix(".h5")):
                         path.unlink(missing_ok=True)
+                    self._check_present(step_xdmf.name)   # the directory removed meanwhile?
                 reason = re.search(r"error message = '([^']+)'", captured.text)
                 detail = reason.group(1) if reason else str(exc)
                 raise OSError(errno.EIO, f"writing {step_xdmf.name} failed ({detail})",
@@ -257,11 +258,17 @@ class XDMFTimeSeries:
 
         def publish():
             step_h5 = step_xdmf.with_suffix(".h5")
-            if self.durable:
-                fsync_path(step_h5)
-                fsync_path(step_xdmf)
-            self._grids.append(self._flatten_step(step_xdmf, index, t))
+            # the new step and every published one are there, in the directory taken
             self._check_present(self.master.name, index)
+            try:
+                if self.durable:
+                    fsync_path(step_h5)
+                    fsync_path(step_xdmf)
+                grid = self._flatten_step(step_xdmf, index, t)
+            except FileNotFoundError:      # removed meanwhile: say what, if that is what
+                self._check_present(self.master.name, index)
+                raise
+            self._grids.append(grid)
             self._write_master()
             return None
 

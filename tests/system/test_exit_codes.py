@@ -54,3 +54,21 @@ def test_ladder_plot_only_on_a_garbage_csv_is_bad_input(tmp_path, capsys):
 def test_validate_with_a_collapse_config_is_refused_at_once(tmp_path, capsys):
     assert main(["validate", "plug", "--config", RIGID, "--out", str(tmp_path)]) == 2
     assert "needs a periodic layer" in _one_error_line(capsys.readouterr().err)
+
+
+def test_an_interrupt_under_mpirun_says_how_to_read_mpiruns_status(monkeypatch, capsys):
+    """Issue 47: SIGTERM to Open MPI's mpirun ends it with exit 1 even when the ranks stop
+    cleanly with 130 (measured, docs/reliability.md); the line says run.json is the outcome.
+    Serially the line is unchanged."""
+    from dpcollapse import cli, parallel
+
+    monkeypatch.setattr(cli, "end_together", lambda *a, **k: False)
+    message = "stopped at t = 0.0235 s; the run directory is valid, continue with --resume"
+    assert cli._fail(message, 130) == 130
+    assert _one_error_line(capsys.readouterr().err) == f"dpcollapse: error: {message}"
+    monkeypatch.setattr(parallel, "several_ranks", lambda: True)
+    assert cli._fail(message, 130) == 130
+    line = _one_error_line(capsys.readouterr().err)
+    assert line.startswith(f"dpcollapse: error: {message}; under mpirun") and "run.json" in line
+    assert cli._fail("mesh degenerate", 4) == 4                  # other statuses: unchanged
+    assert _one_error_line(capsys.readouterr().err) == "dpcollapse: error: mesh degenerate"
