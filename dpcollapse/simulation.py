@@ -194,6 +194,8 @@ class Simulation:
                             "them, if any, are lost", self.state.t)
         self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg),
                             run_id=self.identity["run_id"])
+        if cfg.time_scheme_chosen:   # the time keys a method chosen with --set brought
+            self.info.update(time_scheme_chosen=cfg.time_scheme_chosen)
         if resume:   # this segment's start: exact (every history restored) or what was not
             self.info.update(resume={"t": self.state.t, "step": self.state.step,
                                      "exact": not lost, "not_restored": lost})
