@@ -135,7 +135,7 @@ RESUME_CASES = {
                                                             "numerics.extrapolate=true"], 10),
     "two_phase_adaptive_extrapolate": ("column_eulerian_a0.5.yaml", [
         *_ADAPTIVE, "time.end_time=0.04", "numerics.extrapolate=true",
-        "numerics.fixed_iterations=1"], 10),
+        "numerics.fixed_iterations=1", "model.remesh_every=15"], 10),   # rebuilt at step 15
 }
 
 
