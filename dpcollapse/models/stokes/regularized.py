@@ -208,7 +208,9 @@ class RegularizedFlow(StokesState):
         record = state.pop(EXTRAPOLATION_KEY, None)
         if not self.settings.extrapolate:
             return
-        if record is None:
+        stored = record is not None and (record["dt"] is None
+                                         or all(name in fields for name in EXTRAPOLATION_FIELDS))
+        if not stored:
             note_not_restored(state, "numerics.extrapolate's last step (the first resumed "
                                      "step starts from uⁿ)")
             return
