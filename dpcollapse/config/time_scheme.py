@@ -19,6 +19,7 @@ from __future__ import annotations
 from typing import Any
 
 from dpcollapse.config.fields import _fmt
+from dpcollapse.errors import ConfigError
 
 #: the keys that choose the model or the 2D method
 METHOD_KEYS = (("model", "name"), ("numerics", "method"))
@@ -41,20 +42,40 @@ def choose_time_scheme(data: dict, overridden: set[tuple[str, str]]) -> tuple[di
         return data, None
     if supports_bdf2(model.get("name", "stokes"), numerics.get("method", "regularized")):
         return data, None
+    tolerance = _number(time.get("tolerance"))
+    if ("time", "tolerance") in overridden and tolerance is not None:
+        # set explicitly for a method without an error estimate: the refusal names the method
+        # (time.tolerance's own check would advise bdf2, which this method refuses)
+        raise ConfigError(f"time.tolerance = {_fmt(tolerance)}: the error-controlled step needs "
+                          f"BDF2's error estimate, which {_method(data, changed)} has not; must "
+                          "be null with it")
     new = {"scheme": "bdf1", "tolerance": None}
     replaced = {f"time.{key}": time[key] for key, value in new.items()
                 if key in time and time[key] != value and ("time", key) not in overridden}
     if not replaced:
         return data, None
     data = {**data, "time": {**time, **{k.split(".")[1]: new[k.split(".")[1]] for k in replaced}}}
-    what = ", ".join(f"{s}.{k} = {_fmt(data[s][k] if k in data.get(s, {}) else None)}"
-                     for s, k in changed)
+    what = _method(data, changed)
     chosen = {"scheme": data["time"].get("scheme", "bdf1"),
               "tolerance": data["time"].get("tolerance"),
               "replaced": replaced,
               "reason": f"{what} (set with --set) has no BDF2 and no error estimate; the "
                         "config file's time keys were written for its own method"}
     return data, chosen
+
+
+def _number(value: Any) -> float | None:
+    """``value`` as a number (YAML reads 1e-3 as a string), None if it is none (null or not
+    a number: the schema's own check names it)."""
+    try:
+        return None if value is None or isinstance(value, bool) else float(value)
+    except (TypeError, ValueError):
+        return None
+
+
+def _method(data: dict, changed: list[tuple[str, str]]) -> str:
+    """The method keys set with --set, as the user wrote them ("numerics.method = 'x'")."""
+    return ", ".join(f"{s}.{k} = {_fmt(data[s][k])}" for s, k in changed)
 
 
 def describe_choice(chosen: dict, dt: float) -> str:

@@ -33,6 +33,9 @@ def test_an_explicit_time_key_is_the_users_choice():
         with pytest.raises(ConfigError) as err:
             load_config(RIGID, ["numerics.method=augmented_lagrangian", extra])
         assert str(err.value).startswith(key) and "\n" not in str(err.value)
+    # the tolerance's refusal names the method, not a bdf2 the method refuses
+    assert "numerics.method = 'augmented_lagrangian'" in str(err.value)
+    assert "bdf2" not in str(err.value).split(":")[-1]
 
 
 def test_a_file_that_names_the_method_and_bdf2_is_refused(tmp_path):
