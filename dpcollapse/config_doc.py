@@ -60,6 +60,15 @@ _CROSS_CHECKS = """\
   rest);
 - `numerics.extrapolate` not with `time.tolerance` (measured to drive the step to ~1e-5 s:
   the fixed point's error enters the local error estimate);
+- `time.scheme: bdf2` (and so `time.tolerance`) only with `model.name: stokes` and
+  `numerics.method: regularized` (Picard or Newton). A method that lacks it brings its own
+  scheme (`config/time_scheme.py`): when `--set` changes `model.name` or `numerics.method`
+  to one without BDF2, each of `time.scheme` / `time.tolerance` that the command line did
+  not set becomes `bdf1` / `null` (fixed steps of `time.dt`), said in one log line and in
+  run.json's `time_scheme_chosen` (the keys replaced, their old values, the reason):
+  `dpcollapse run configs/rigid.yaml --set numerics.method=augmented_lagrangian` runs. A
+  time key set with `--set`, or a file that names the method and `bdf2` together, is the
+  user's explicit choice and is refused in one line;
 - a periodic layer (`geometry.shape: layer`) has a fixed domain: `numerics.ale: false`;
 - `geometry.mesh_size` (and `surface_mesh_size`) smaller than the mass, min(height, top
   length) (layer: min(height, base_length)); the flank must not cross the wall (top

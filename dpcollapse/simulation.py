@@ -37,7 +37,7 @@ from dpcollapse.config import Config, config_to_dict, save_config
 from dpcollapse.errors import ConfigError, ConvergenceError, DpcollapseError, Interrupted, MeshError
 from dpcollapse.fingerprint import check_identity, config_fingerprint
 from dpcollapse.geometry.mesher import TaggedMesh
-from dpcollapse.io.checkpoint import previous_path
+from dpcollapse.io.checkpoint import NOT_RESTORED, previous_path
 from dpcollapse.io.diagnostics import DiagnosticsWriter
 from dpcollapse.io.exports import CheckpointExport, FieldExport
 from dpcollapse.io.runinfo import RunInfo
@@ -73,6 +73,7 @@ class Simulation:
                              or previous_path(self.checkpoint_path).exists())
         #: the run's identity and config fingerprint, stored in every checkpoint
         self.identity = {"fingerprint": config_fingerprint(cfg), "run_id": uuid.uuid4().hex[:12]}
+        lost: list[str] = []
         if resume:
             disc, state = self.factory.load_checkpoint(self.checkpoint_path, comm)
             self.state = LoopState.from_dict(state)
@@ -81,6 +82,11 @@ class Simulation:
             self._use(disc)
             self._last_measures = self.disc.measures()
             log.info("resuming from t = %.4f s (step %d)", self.state.t, self.state.step)
+            #: what the checkpoint did not carry (an older version's): said, not silent
+            lost = self.state.extra.pop(NOT_RESTORED, [])
+            if lost:
+                log.warning("the checkpoint lacks %s: the resumed steps differ from an "
+                            "uninterrupted run's", "; ".join(lost))
         else:
             self.state = LoopState(dt_target=cfg.time.dt)
             self._use(self.factory.start(comm))
@@ -105,6 +111,12 @@ class Simulation:
                  **self.state.event_counts, **self._last_measures}))
         self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg),
                             run_id=self.identity["run_id"], history_plot=self.disc.history_plot)
+        if cfg.time_scheme_chosen:   # the time keys a method chosen with --set brought
+            self.info.update(time_scheme_chosen=cfg.time_scheme_chosen)
+        if resume:   # this segment's start: exact (every history restored) or what was not
+            self.info.update(resume={"t": self.state.t, "step": self.state.step,
+                                     "exact": not lost, "not_restored": lost})
+            parallel.on_root(comm, self.info.write)
         self.timings = {"solve": 0.0, "mesh_motion": 0.0, "remesh": 0.0, "output": 0.0}
         self.iteration_counts: list[int] = []
         self.step_sizes: list[float] = []

@@ -17,6 +17,7 @@ from dpcollapse.config.fields import _fmt
 from dpcollapse.config.material import MATERIALS, _rheology_of
 from dpcollapse.config.messages import _UNION_TAGS, _UNIONS, _from_validation_error
 from dpcollapse.config.root import Config
+from dpcollapse.config.time_scheme import choose_time_scheme, describe_choice
 
 
 def validate_config(data: Any, base_dir: str | Path | None = None) -> Config:
@@ -174,7 +175,15 @@ def load_config(path: str | Path | None, overrides: Sequence[str] = ()) -> Confi
     if not isinstance(data, dict):
         raise ConfigError(f"config file {path}: top level must be a mapping of sections, "
                           f"got {type(data).__name__}")
-    return validate_config(_apply_overrides(data, overrides), base_dir=base)
+    data = _apply_overrides(data, overrides)
+    # a method chosen on the command line brings its time scheme (config.time_scheme)
+    overridden = {tuple(item.partition("=")[0].strip().split(".")) for item in overrides}
+    data, chosen = choose_time_scheme(data, overridden)
+    cfg = validate_config(data, base_dir=base)
+    if chosen is not None:
+        cfg.set_time_scheme_chosen(chosen)
+        logging.getLogger("dpcollapse").info(describe_choice(chosen, cfg.time.dt))
+    return cfg
 
 
 def with_overrides(cfg: Config, overrides: Sequence[str]) -> Config:

@@ -6,6 +6,7 @@ import math
 
 from pydantic import (
     Field,
+    PrivateAttr,
     model_validator,
 )
 
@@ -17,6 +18,7 @@ from dpcollapse.config.models import ModelConfig, StokesModel
 from dpcollapse.config.sizes import first_mesh, refuse_too_large
 from dpcollapse.config.numerics import BoundaryConfig, NumericsConfig
 from dpcollapse.config.run import InitialConfig, OutputConfig, TimeConfig
+from dpcollapse.config.time_scheme import supports_bdf2
 
 
 #: numerics.nonlinear_atol = null: the fixed point's absolute stop as a fraction of the
@@ -43,6 +45,16 @@ class Config(_Section):
     initial: InitialConfig = Field(default_factory=InitialConfig, description="Initial state")
     time: TimeConfig = Field(default_factory=TimeConfig, description="Time stepping")
     output: OutputConfig = Field(default_factory=OutputConfig, description="Output")
+    #: the time scheme a method chosen on the command line brought (``config.time_scheme``)
+    _time_scheme_chosen: dict | None = PrivateAttr(default=None)
+
+    @property
+    def time_scheme_chosen(self) -> dict | None:
+        """The time keys replaced for the method (run.json's ``time_scheme_chosen``), or None."""
+        return self._time_scheme_chosen
+
+    def set_time_scheme_chosen(self, chosen: dict) -> None:
+        self._time_scheme_chosen = chosen
 
     @property
     def fixed_point_atol(self) -> float:
@@ -87,8 +99,7 @@ class Config(_Section):
             raise ConfigError("numerics.extrapolate = true with time.tolerance set: measured to "
                               "drive the step to ~1e-5 s (the fixed point's error enters the "
                               "error estimate); must be false with time.tolerance")
-        if self.time.scheme == "bdf2" and (self.model.name != "stokes"
-                                           or self.numerics.method != "regularized"):
+        if self.time.scheme == "bdf2" and not supports_bdf2(self.model.name, self.numerics.method):
             raise ConfigError(f"time.scheme = 'bdf2': only with model.name = stokes and "
                               f"numerics.method = regularized (got {self.model.name}, "
                               f"{self.numerics.method}); use bdf1")

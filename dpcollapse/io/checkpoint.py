@@ -22,6 +22,17 @@ from dpcollapse.io.durable import fsync_path
 from dpcollapse.transfer import CellwiseField
 
 
+#: the loaded state's entry listing the histories the checkpoint did not carry (an older
+#: version's checkpoint): the resumed steps then differ from the uninterrupted run's, and the
+#: resume says so (a log line and run.json's "resume")
+NOT_RESTORED = "not_restored"
+
+
+def note_not_restored(state: dict, what: str) -> None:
+    """Record in a loaded checkpoint's ``state`` that ``what`` could not be restored."""
+    state.setdefault(NOT_RESTORED, []).append(what)
+
+
 def _owned_cell_tags(tagged: TaggedMesh) -> np.ndarray | None:
     """The region tag of each owned cell (None when the mesh has no cell tags)."""
     ct = tagged.cell_tags

@@ -1,4 +1,4 @@
-"""Regression cases: short runs of every scene and method, and the full rigid collapse.
+"""Regression cases: short runs of every model, scene and method, and the full rigid collapse.
 
 Each case is a config of ``configs/`` with ``--set`` overrides; :func:`run_case` runs it
 with :class:`dpcollapse.simulation.Simulation` and returns a few scalars of the end state
@@ -51,6 +51,16 @@ CASES: dict[str, tuple[str, list[str]]] = {
     "mu_i_collapse_short": ("slope22_mui.yaml", ["geometry.mesh_size=0.03", "time.end_time=0.03",
                                                  "time.output_every=1000",
                                                  "time.checkpoint_every=1000"]),
+    # the two-phase model (fixed box, volume fraction c): the a = 0.5 column on 1 cm cells of
+    # the 0.3 m x 0.1 m box, 0.1 s of its collapse (the front at its fastest)
+    "two_phase_short": ("column_eulerian_a0.5.yaml", ["geometry.mesh_size=0.01", "time.end_time=0.1",
+                                                      "time.output_every=1000",
+                                                      "time.checkpoint_every=1000"]),
+    # the depth-averaged Savage–Hutter model: the column of configs/column_sh.yaml on 200
+    # cells (second order), 0.3 s of its spreading
+    "savage_hutter_short": ("column_sh.yaml", ["model.n_cells=200", "time.end_time=0.3",
+                                               "time.output_every=1000",
+                                               "time.checkpoint_every=1000"]),
 }
 #: The full run of configs/rigid.yaml to rest (BDF2, time.tolerance 1e-4: ~35 s serial).
 FULL = {"rigid_full": ("rigid.yaml", [])}

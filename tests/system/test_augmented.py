@@ -167,3 +167,28 @@ def test_check_prints_the_penalties():
                    *[a for o in AL for a in ("--set", o)])
     assert proc.returncode == 0, proc.stderr
     assert "augmented Lagrangian: r = 1214 Pa s, r_f = 4.855e+04 Pa s/m" in proc.stdout
+
+
+def test_the_augmented_lagrangian_runs_on_the_bdf2_config(tmp_path, capsys):
+    """``dpcollapse run configs/rigid.yaml --set numerics.method=augmented_lagrangian`` (a file
+    written for BDF2 with error control) runs with bdf1 and fixed steps, says so in one line
+    and in run.json; an explicit --set time.scheme=bdf2 is still refused in one line."""
+    import json
+
+    from dpcollapse.cli import main
+
+    rigid = str(ROOT / "configs" / "rigid.yaml")
+    out = tmp_path / "al"
+    args = ["run", rigid, "--out", str(out), "--set", "numerics.method=augmented_lagrangian",
+            "--set", "geometry.mesh_size=0.03", "--set", "time.end_time=0.004"]
+    assert main(args) == 0
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "end_time" and info["summary"]["steps"] == 4
+    chosen = info["time_scheme_chosen"]
+    assert chosen["scheme"] == "bdf1" and chosen["tolerance"] is None
+    assert chosen["replaced"] == {"time.scheme": "bdf2", "time.tolerance": 3e-4}
+    assert info["config"]["time"]["scheme"] == "bdf1"
+    capsys.readouterr()
+    assert main(args + ["--set", "time.scheme=bdf2", "--overwrite"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "time.scheme = 'bdf2'" in err[0]

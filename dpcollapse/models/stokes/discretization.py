@@ -36,8 +36,6 @@ from dpcollapse.models.stokes.state import FlowParameters
 
 #: Speed above which a point counts as flowing (seed 000) [m/s].
 FLOWING_SPEED = 1e-3
-#: the checkpoint state's entry of the BDF2 history's numbers (``TimeHistory.record``)
-HISTORY_KEY = "time_history"
 
 
 def rheology(cfg: Config) -> Rheology:
@@ -299,14 +297,13 @@ class StokesFactory:
 
     def save_checkpoint(self, path, disc: StokesDiscretization, state: dict) -> None:
         """The mesh, the model's snapshot and the loop state (collective; rank 0 writes)."""
-        history = disc.flow.history_record()
-        if history is not None:   # BDF2: the past steps go with the loop state
-            state = {**state, HISTORY_KEY: history}
+        # the model's numbers besides the fields (BDF2's past steps, the extrapolation's)
+        state = {**state, **disc.flow.checkpoint_state()}
         save_model_checkpoint(path, disc.tagged, disc.flow.checkpoint_fields(), state)
 
     def load_checkpoint(self, path, comm) -> tuple[StokesDiscretization, dict]:
         tagged, fields, state = load_model_checkpoint(path, comm)
         disc = StokesDiscretization(tagged, self.cfg)
         disc.flow.transfer(fields)
-        disc.flow.restore_history(fields, state.pop(HISTORY_KEY, None))
+        disc.flow.restore_checkpoint(fields, state)
         return disc, state

@@ -24,12 +24,15 @@ from dolfinx import fem
 from dpcollapse import compat
 from dpcollapse.forms.picard import picard_terms
 from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.io.checkpoint import note_not_restored
 from dpcollapse.models.stokes.state import (
     FlowParameters,
     StepReport,
     StokesState,
     contraction,
     distance_to_limit,
+    load_mixed,
+    snapshot_mixed,
 )
 from dpcollapse.scenes.base import BoundaryKind
 from dpcollapse.solvers.anderson import Anderson
@@ -56,6 +59,12 @@ class PicardSettings:
     fixed_iterations: int | None = None  # accept the step after this many iterates (None: converge)
     convection: str = "implicit"  # implicit (lhs) or lagged (rhs at the iterate: symmetric lhs, LDLᵀ)
     error_norm: str = "rms"  # time.error_norm: rms or max of the BDF2 local error estimate
+
+
+#: checkpoint names of the extrapolation's x_{n−1} (numerics.extrapolate), and the key of its
+#: numbers in the checkpoint state
+EXTRAPOLATION_FIELDS = ("extrapolation_velocity", "extrapolation_pressure")
+EXTRAPOLATION_KEY = "extrapolation"
 
 
 def picard_settings(cfg) -> PicardSettings:
@@ -171,6 +180,43 @@ class RegularizedFlow(StokesState):
         """uⁿ ← u^{n+1}, and the step's start becomes the extrapolation history."""
         super().accept_step()
         self._history = self._pending_history
+
+    # ------------------------------------------------------------------ checkpoint
+    def checkpoint_fields(self) -> dict:
+        """Also, with ``numerics.extrapolate``, the last step's start x_{n−1} = (u, p)
+        (``EXTRAPOLATION_FIELDS``) that the next step's first iterate reads."""
+        fields = super().checkpoint_fields()
+        if self.settings.extrapolate and self._history is not None:
+            fields.update(snapshot_mixed(self, self._history[0], EXTRAPOLATION_FIELDS))
+        return fields
+
+    def checkpoint_state(self) -> dict:
+        """Also, with ``numerics.extrapolate``, the extrapolation's numbers: the last step
+        Δt_prev (None before the first step on this mesh) and the last measured contraction ρ
+        (the first iterate's error estimate)."""
+        state = super().checkpoint_state()
+        if self.settings.extrapolate:
+            dt = self._history[1] if self._history is not None else None
+            state[EXTRAPOLATION_KEY] = {"dt": dt, "contraction": self._contraction}
+        return state
+
+    def restore_checkpoint(self, fields: dict, state: dict) -> None:
+        """Also the extrapolation history (``checkpoint_fields``, ``checkpoint_state``); a
+        checkpoint without it (written before 2026-12-07, or without extrapolate) leaves the
+        first resumed step unextrapolated."""
+        super().restore_checkpoint(fields, state)
+        record = state.pop(EXTRAPOLATION_KEY, None)
+        if not self.settings.extrapolate:
+            return
+        stored = record is not None and (record["dt"] is None
+                                         or all(name in fields for name in EXTRAPOLATION_FIELDS))
+        if not stored:
+            note_not_restored(state, "numerics.extrapolate's last step (the first resumed "
+                                     "step starts from uⁿ)")
+            return
+        self._contraction = float(record["contraction"])
+        if record["dt"] is not None:
+            self._history = (load_mixed(self, fields, EXTRAPOLATION_FIELDS), float(record["dt"]))
 
     # ------------------------------------------------------------------ the step
     def solve_step(self, dt: float) -> StepReport:

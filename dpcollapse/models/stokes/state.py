@@ -25,6 +25,7 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.geometry.free_surface import set_nodal_values, surface_tension_nodes
 from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.io.checkpoint import note_not_restored
 from dpcollapse.models.stokes.history import TimeHistory
 from dpcollapse.rheology.base import Rheology
 from dpcollapse.scenes.base import SOLID, Boundary, BoundaryKind
@@ -325,15 +326,20 @@ class StokesState:
             fields.update(snapshot_history(self))
         return fields
 
-    def history_record(self) -> dict | None:
-        """The BDF2 history's numbers for the checkpoint's state (None under BDF1)."""
-        return self.history.record() if self.scheme == "bdf2" else None
+    def checkpoint_state(self) -> dict:
+        """The numbers besides the fields (``checkpoint_fields``) that the next step reads,
+        by checkpoint-state key: under BDF2 the history's (``TimeHistory.record``)."""
+        return {HISTORY_KEY: self.history.record()} if self.scheme == "bdf2" else {}
 
-    def restore_history(self, fields: dict[str, CellwiseField], record: dict | None) -> None:
-        """The BDF2 history of a checkpoint of this mesh (``checkpoint_fields``,
-        ``history_record``); without one (BDF1, or an older checkpoint) it stays empty."""
+    def restore_checkpoint(self, fields: dict[str, CellwiseField], state: dict) -> None:
+        """The history of a checkpoint of this mesh (``checkpoint_fields``,
+        ``checkpoint_state``; its keys are taken out of ``state``); without one (BDF1, or an
+        older checkpoint) it stays empty."""
+        record = state.pop(HISTORY_KEY, None)
         if self.scheme == "bdf2" and record is not None:
             load_history(self, fields, record)
+        elif self.scheme == "bdf2":
+            note_not_restored(state, "the BDF2 history (the first resumed steps are BDF1)")
 
     def transfer(self, fields: dict[str, CellwiseField]) -> float:
         """Set the state from ``snapshot`` fields of another mesh (evaluated at this mesh's
@@ -375,6 +381,28 @@ def load_state(flow, u_field: CellwiseField, p_field: CellwiseField) -> float:
     return flow.comm.allreduce(float(outside), op=MPI.MAX)
 
 
+def snapshot_mixed(flow, values: np.ndarray, names: tuple[str, str]) -> dict[str, CellwiseField]:
+    """A (u, p) dof array of ``flow.W`` (``values``, local with ghosts) as the fields
+    ``names`` (P2 velocity, P1 pressure) gathered on every rank."""
+    u = _cellwise(flow.V, values[flow.velocity_dofs], 2, 2)
+    p = _cellwise(flow.Q, values[flow.pressure_dofs], 1, 1)
+    comm = flow.comm
+    return {names[0]: concatenate(comm.allgather(u)), names[1]: concatenate(comm.allgather(p))}
+
+
+def load_mixed(flow, fields: dict[str, CellwiseField], names: tuple[str, str]) -> np.ndarray:
+    """The (u, p) dof array of ``snapshot_mixed`` fields on ``flow``'s mesh (exact on the
+    mesh they were taken on: evaluated at their own nodes)."""
+    values = np.zeros_like(flow.iterate.x.array)
+    values[flow.velocity_dofs] = fields[names[0]].evaluate(
+        flow.V.tabulate_dof_coordinates()[:, :2]).ravel()
+    values[flow.pressure_dofs] = fields[names[1]].evaluate(
+        flow.Q.tabulate_dof_coordinates()[:, :2])[:, 0]
+    return values
+
+
+#: the checkpoint state's entry of the BDF2 history's numbers (``TimeHistory.record``)
+HISTORY_KEY = "time_history"
 #: Checkpoint names of the BDF2 history: u^{n−1}, u^{n−2} (P2) and x^{n−1} − xⁿ (P1)
 HISTORY_VELOCITIES = ("history_velocity_1", "history_velocity_2")
 HISTORY_DISPLACEMENT = "history_mesh_displacement"
@@ -405,7 +433,7 @@ def load_history(flow, fields: dict[str, CellwiseField], record: dict) -> None:
     flow.history.restore(record, velocities, previous)
 
 
-#: Discontinuous fields are evaluated this fraction of the way from each dof towards its
+#: Discontinuous fields are located this fraction of the way from each dof towards its
 #: cell's centroid, so that a dof on a shared vertex or edge takes its own cell's value
 #: (exact on the same mesh: a checkpoint restores the multipliers as they were).
 INSIDE_SHIFT = 1e-6
@@ -444,7 +472,11 @@ def load_multipliers(flow, fields: dict[str, CellwiseField]) -> None:
     for name, field in fields.items():
         if name in targets:
             func = targets[name]
-            x = _evaluation_points(func.function_space)
-            func.x.array[:] = field.evaluate(x).ravel()
+            V = func.function_space
+            # the cell found from the point pulled inside, its polynomial at the dof itself
+            # (on the same mesh: the node's stored value exactly, ``CellwiseField``)
+            cells, _ = field.locate(_evaluation_points(V))
+            func.x.array[:] = field.evaluate_in_cells(V.tabulate_dof_coordinates()[:, :2],
+                                                      cells).ravel()
 
 

@@ -396,7 +396,9 @@ class TwoPhaseFactory:
         if disc.bin:
             state = state | {"outflow_area": disc.fraction.outflow_volume,
                              "discharge_history": [list(x) for x in disc._discharge]}
-        save_model_checkpoint(path, disc.tagged, disc.flow.snapshot(), state)
+        # the flow's numbers besides the fields (numerics.extrapolate's x_{n−1}, Δt, ρ)
+        state = state | disc.flow.checkpoint_state()
+        save_model_checkpoint(path, disc.tagged, disc.flow.checkpoint_fields(), state)
 
     def load_checkpoint(self, path, comm) -> tuple[TwoPhaseDiscretization, dict]:
         """The box of the config with the checkpoint's fields."""
@@ -405,6 +407,7 @@ class TwoPhaseFactory:
         disc = TwoPhaseDiscretization(tagged if is_adaptive(self.cfg) else self._box(comm), self.cfg,
                                       self.vessel)
         disc.flow.transfer(fields)
+        disc.flow.restore_checkpoint(fields, state)
         if disc.bin:
             disc.fraction.outflow_volume = float(state.get("outflow_area", 0.0))
             disc._discharge = [tuple(x) for x in state.get("discharge_history", [])]
