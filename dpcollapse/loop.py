@@ -127,6 +127,9 @@ class LoopState:
     remesh_angle_after: float | None = None
     kinetic_energy_previous: float | None = None
     landings: int | None = None
+    #: boundary surgeries done by remeshes and the sum of their area changes [m²]
+    surgeries: int | None = None
+    surgery_area_change: float | None = None
     #: the largest kinetic energy so far [J/m] (the rest rule time.rest_energy_fraction;
     #: in the checkpoint so that a resumed run stops where the uninterrupted one does)
     kinetic_energy_peak: float | None = None

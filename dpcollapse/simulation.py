@@ -181,7 +181,8 @@ class Simulation:
         if resume:   # the checkpoint step's row, if the file lost it (cut by a crash)
             restored = parallel.agree(comm, lambda: self.diagnostics.restore(
                 {"step": self.state.step, "t": self.state.t, "remeshes": self.state.remeshes,
-                 "landings": self.state.landings or 0, **self._last_measures}))
+                 "landings": self.state.landings or 0, **self._surgery_columns(),
+                 **self._last_measures}))
             if restored:
                 log.warning("diagnostics.csv ended before the checkpoint (t = %.4f s): its row "
                             "was rebuilt from the checkpoint (dt, iterations: nan); rows between "
@@ -194,6 +195,8 @@ class Simulation:
         #: the solver counters of retired discretizations (``Discretization.solver_counts``)
         self.retired_counts: Counter[str] = Counter()
         self.halvings = 0   # step attempts that failed and were retried with dt/2
+        #: this process's boundary surgeries (``_record_surgeries``), for run.json
+        self.surgery_events: list[dict] = []
         #: the error-controlled step (time.tolerance), else None
         self.controller = StepController(cfg.time.tolerance) if cfg.time.tolerance else None
         if self.controller is not None and self.state.step_controller is not None:
@@ -253,6 +256,7 @@ class Simulation:
         if self.controller is not None:   # the new mesh has no history: no estimate for 2 steps
             self.controller.forget()
         self.domain.remeshed(self.disc, self.state)
+        self._record_surgeries()
         self.timings["remesh"] += time.perf_counter() - t0
 
         log.info("remesh %d at t = %.4f s (%s): area %.8e -> %.8e m² (%+.2e rel), cells %d -> %d, "
@@ -262,6 +266,31 @@ class Simulation:
         self.events.emit("remesh", self, {"reason": reason, "area_before": area_before,
                                           "area_after": area_after, "cells_before": cells_before,
                                           "cells_after": cells_after})
+
+    # ------------------------------------------------------------------ surgery hook
+    # The moving domain's boundary surgeries (``geometry.surgery``) reach diagnostics.csv
+    # (columns surgeries, surgery_area_change) and run.json (the count, the sum and one entry
+    # per event) through these two methods only (until the loop has a generic domain event).
+    def _surgery_columns(self) -> dict:
+        st = self.state
+        return {"surgeries": st.surgeries or 0,
+                "surgery_area_change": st.surgery_area_change or 0.0}
+
+    def _record_surgeries(self) -> None:
+        take = getattr(self.domain, "take_surgeries", None)
+        for done in (take() if take else []):
+            st = self.state
+            st.surgeries = (st.surgeries or 0) + 1
+            st.surgery_area_change = (st.surgery_area_change or 0.0) + done.area_change
+            event = {"t": st.t, "step": st.step, "remesh": st.remeshes, "what": done.describe(),
+                     "area_change": done.area_change,
+                     "relative_area_change": done.area_change / st.area0,
+                     "closed_pockets": len(done.closed_pockets),
+                     "closed_area": float(sum(done.closed_pockets)),
+                     "holes": len(done.holes)}
+            self.surgery_events.append(event)
+            log.info("surgery %d at t = %.4f s (remesh %d): %s (%+.2e of the initial area)",
+                     st.surgeries, st.t, st.remeshes, event["what"], event["relative_area_change"])
 
     def _check_energy(self, m: dict) -> None:
         """Dissipative flow: KE(t) − KE(0) ≤ W(t), the work of gravity ρ∫f·x dx|₀ᵗ (valid when
@@ -430,6 +459,7 @@ class Simulation:
                        "courant": self.courant,
                        "iterations": iterations,
                        "residual": residual, "remeshes": st.remeshes, "landings": st.landings or 0,
+                       **self._surgery_columns(),
                        "wall_time": time.perf_counter() - self.wall0, **m}
                 parallel.agree(self.comm, lambda: self.diagnostics.write(row))   # rank 0's
                 stop = any([bool(observe(self)) for observe in observers]
@@ -512,6 +542,7 @@ class Simulation:
             "remeshes": self.state.remeshes, "front": m["front"], "max_height": m["max_height"],
             "thick_front": m["thick_front"], "film_threshold": self.disc.film_threshold,
             "landings": self.state.landings or 0,
+            **self._surgery_columns(),
             # the area that left through an outflow side is outflow, not a loss
             "area": m["area"], "area_drift": (m["area"] + m.get("outflow_area", 0.0)
                                               - self.state.area0) / self.state.area0,
@@ -531,6 +562,8 @@ class Simulation:
             summary["error"] = error
         self.timings["total"] = time.perf_counter() - self.wall0
         self.info.update(status=status, summary=summary, timings=self.timings)
+        if self.surgery_events:
+            self.info.update(surgery_events=self.surgery_events)
         self.info.write()
         return summary
 

@@ -5,7 +5,10 @@ x ← x + Δt w, and the remesh criterion on the smallest cell angle.
 Remesh when the smallest angle is below ``numerics.remesh_min_angle`` and at least
 REMESH_COOLDOWN steps have passed since the last remesh; a remesh that could not reach the
 threshold (a sharp boundary corner) lowers it to REMESH_DEGRADATION × the angle it left,
-so that the same mesh is not rebuilt every REMESH_COOLDOWN steps.
+so that the same mesh is not rebuilt every REMESH_COOLDOWN steps. With surgery on
+(``numerics.remesh_surgery``), a contact of the free surface with the bed or the mass
+(``geometry.surgery``) also asks for a remesh (after the same cooldown), where the surgery
+is done; ``surgeries`` lists the ones done (``geometry.surgery.Surgery``), for the loop.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ import logging
 import math
 
 from dpcollapse.ale.motion import quality, retag_landed
+from dpcollapse.ale.remesh import boundary_contact
 from dpcollapse.domain.region_remesh import remesh_regions
 from dpcollapse.errors import MeshError
 
@@ -34,8 +38,11 @@ class MovingDomain:
 
     def __init__(self, remesh_min_angle: float, mesh_size: float,
                  surface_mesh_size: float | None = None, trim_thickness: float = 0.0,
-                 conserve_area: bool = False):
+                 conserve_area: bool = False, surgery: bool = False):
         self.remesh_min_angle = remesh_min_angle
+        self.surgery = surgery
+        #: the surgeries done by remeshes, not yet collected by the loop (``take_surgeries``)
+        self.surgeries: list = []
         self.trim_thickness, self.conserve_area = trim_thickness, conserve_area
         self.mesh_size, self.surface_mesh_size = mesh_size, surface_mesh_size
         self.solves = 0
@@ -72,7 +79,16 @@ class MovingDomain:
         threshold = min(self.remesh_min_angle, REMESH_DEGRADATION * after)
         if q["min_angle"] < threshold and since >= REMESH_COOLDOWN:
             return f"min angle {q['min_angle']:.1f}°"
+        if self.surgery and since >= REMESH_COOLDOWN and _one_region(disc.tagged):
+            contact = boundary_contact(disc.tagged, self.mesh_size)
+            if contact:
+                return f"boundary {contact}"
         return None
+
+    def take_surgeries(self) -> list:
+        """The surgeries done since the last call (``geometry.surgery.Surgery``)."""
+        done, self.surgeries = self.surgeries, []
+        return done
 
     def remesh(self, tagged, area0: float):
         """A new mesh of the current boundary (``ale.remesh``; with several material regions
@@ -83,7 +99,7 @@ class MovingDomain:
         try:
             new, _, nverts = remesh_regions(tagged, self.mesh_size, self.surface_mesh_size,
                                             REMESH_AREA_TOLERANCE * area0, self.trim_thickness,
-                                            self.conserve_area)
+                                            self.conserve_area, self.surgery, self.surgeries)
         except ValueError as exc:   # the boundary is no longer one closed loop
             raise MeshError(f"mesh degenerate: cannot remesh, {exc}") from exc
         return new, nverts
@@ -97,3 +113,16 @@ class MovingDomain:
             log.warning("remesh %d: the new mesh's smallest angle is %.1f° (< %g°, set by the "
                         "boundary); the next remesh waits until it drops below %.1f°",
                         state.remeshes, after, self.remesh_min_angle, REMESH_DEGRADATION * after)
+
+
+def _one_region(tagged) -> bool:
+    """Whether the mesh's cells are of one material region (the surgery's domain; several
+    regions are remeshed along their interface, ``domain.region_remesh``, without it)."""
+    from mpi4py import MPI
+
+    if tagged.cell_tags is None:
+        return True
+    values = tagged.cell_tags.values
+    lo = tagged.mesh.comm.allreduce(int(values.min()) if len(values) else 2**31, op=MPI.MIN)
+    hi = tagged.mesh.comm.allreduce(int(values.max()) if len(values) else -2**31, op=MPI.MAX)
+    return lo >= hi

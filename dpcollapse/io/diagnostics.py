@@ -9,7 +9,7 @@ from pathlib import Path
 COLUMNS = [
     "step", "t", "dt", "dt_limit", "courant", "iterations", "residual", "front", "max_height", "kinetic_energy",
     "area", "max_speed", "remeshes", "wall_time",
-    "thick_front", "landings",
+    "thick_front", "landings", "surgeries", "surgery_area_change",
 ]
 
 
