@@ -170,3 +170,14 @@ def test_remesh_with_surgery_keeps_a_hole(comm):
     again, _, _ = remesh_domain(new, h, None, 1e-9, surgery=True, surgeries=done)
     assert len(done) == 1
     assert _mesh_area(again.mesh, comm) == pytest.approx(area1, rel=1e-9)
+
+
+def test_a_mass_that_would_come_apart_is_an_error():
+    """A figure eight (a fold that pinches the mass into two lobes meeting at a point): the
+    union is two pieces; the surgery refuses (ValueError: exit 4 at the remesh), it never
+    drops one."""
+    h = 0.1
+    corners = [(0, 0), (1, 0), (2, 1), (3, 1), (3, 0), (2, 0), (1, 1), (0, 1)]
+    poly = _densify(corners, [BED, SURFACE, SURFACE, SURFACE, SURFACE, SURFACE, SURFACE, WALL], h)
+    with pytest.raises(ValueError, match="pieces"):
+        operate(poly, h)
