@@ -3,8 +3,8 @@
 1. Gather the tagged boundary edges of every rank on rank 0 and chain them into one
    polygon (``geometry.polygon``), with the holes a surgery kept. With ``surgery``, a free
    surface that touches the bed or the mass itself is first rebuilt as the union of the mass
-   (``geometry.surgery``: pockets kept as holes or closed). A free surface folded over itself (a crossing) is
-   untangled first: the smaller loop at each crossing is cut off at the crossing point
+   (``geometry.surgery``: pockets kept as holes or closed). Otherwise (surgery off) a free
+   surface folded over itself (a crossing) is untangled first: the smaller loop at each crossing is cut off at the crossing point
    (``polygon.untangle``; its area is the area change reported). Every existing boundary vertex stays where it is or is
    dropped; none is moved or snapped, so the toe (the bed/free-surface corner) and the
    front position are exactly continuous. Long edges are split on the edge (no area

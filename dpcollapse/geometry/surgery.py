@@ -106,7 +106,6 @@ def near_contacts(points: np.ndarray, tags: np.ndarray, mesh_size: float
     """Near self-contacts (module docstring): (vertex k, edge j, closest point on j), one per
     vertex (its closest edge), free-surface vertices only."""
     p = np.asarray(points, dtype=float)
-    n = len(p)
     gap, min_arc = CONTACT_GAP * mesh_size, CONTACT_ARC * mesh_size
     a, b = p, np.roll(p, -1, axis=0)
     surface_vertex = (tags == SURFACE) | (np.roll(tags, 1) == SURFACE)
