@@ -26,7 +26,7 @@ from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, boundary_edges,
 from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, chain_loops, clip_right,
                                          offset_run, polygon_is_simple, remove_spikes, resample,
                                          where_it_crosses, untangle)
-from dpcollapse.geometry.surgery import Surgery, close_small_holes, contact_kinds, operate
+from dpcollapse.geometry.surgery import Surgery, close_small_holes, operate, surgery_needed
 from dpcollapse.scenes.base import thickness_front
 
 
@@ -164,14 +164,13 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
 
 
 def boundary_contact(tagged: TaggedMesh, mesh_size: float) -> str | None:
-    """What contact of the free surface with the bed or the mass the boundary has now
-    (``geometry.surgery.contact_kinds``: "crossing", "self-contact", "bed contact"), or None;
-    the same on every rank."""
+    """The contacts of the free surface with the bed or the mass that a surgery would act on
+    now (``geometry.surgery.surgery_needed``: "crossing", "self-contact", "bed contact"), or
+    None; the same on every rank."""
     all_edges, all_tags = boundary_edges(tagged)
 
     def kinds():
         loops = chain_loops(all_edges, all_tags)
-        found = contact_kinds(loops[0], mesh_size, loops[1:])
-        return ", ".join(found) if found else None
+        return surgery_needed(loops[0], mesh_size, loops[1:])
 
     return parallel.on_root(tagged.mesh.comm, kinds)

@@ -158,6 +158,22 @@ def contact_kinds(poly: BoundaryPolygon, mesh_size: float,
     return found
 
 
+def surgery_needed(poly: BoundaryPolygon, mesh_size: float,
+                   holes: list[BoundaryPolygon] = ()) -> str | None:
+    """The contacts (``contact_kinds``, joined) when a surgery would change the boundary,
+    else None: a landed tip whose pocket is kept asks for nothing (a remesh every few steps
+    would not change it). A union that would come apart counts as needed (the remesh then
+    reports it)."""
+    kinds = contact_kinds(poly, mesh_size, holes)
+    if kinds == ["bed contact"]:
+        try:
+            if operate(poly, mesh_size, holes) is None:
+                return None
+        except ValueError:
+            pass
+    return ", ".join(kinds) if kinds else None
+
+
 def close_area(mesh_size: float) -> float:
     """Pockets smaller than this [m²] are closed: CLOSE_CELLS equilateral cells of side h."""
     return CLOSE_CELLS * math.sqrt(3) / 4 * mesh_size ** 2

@@ -8,7 +8,8 @@ import pytest
 
 from dpcollapse.geometry.mesher import BED, SURFACE, WALL
 from dpcollapse.geometry.polygon import BoundaryPolygon, polygon_is_simple
-from dpcollapse.geometry.surgery import CLOSE_CELLS, bed_contacts, near_contacts, operate
+from dpcollapse.geometry.surgery import (CLOSE_CELLS, bed_contacts, near_contacts, operate,
+                                         surgery_needed)
 
 pytest.importorskip("shapely")
 
@@ -48,6 +49,7 @@ def test_self_contact_keeps_a_large_pocket_as_a_hole():
     h = 0.1
     poly = _hook(0.3 + 0.05 * h)
     assert near_contacts(poly.points, poly.edge_tags, h)
+    assert surgery_needed(poly, h) == "self-contact"
     result = operate(poly, h)
     assert result is not None and result.near_contacts > 0 and not result.crossings
     # one hole; what else closed are the slivers of air between the bridges in the gap
@@ -114,6 +116,7 @@ def test_landed_nose_keeps_a_large_pocket():
     poly = _nose(0.0)
     assert bed_contacts(poly.points, poly.edge_tags)
     assert operate(poly, h) is None
+    assert surgery_needed(poly, h) is None        # no remesh asked for it either
 
 
 def test_landed_nose_closes_a_small_pocket():
@@ -125,6 +128,7 @@ def test_landed_nose_closes_a_small_pocket():
     poly = _densify(corners, tags, h)
     pocket = 0.5 * 0.05 * 0.02
     assert pocket < CLOSE_CELLS * math.sqrt(3) / 4 * h ** 2
+    assert surgery_needed(poly, h) == "bed contact"
     result = operate(poly, h)
     assert result is not None and result.bed_contacts == 1 and not result.holes
     assert result.closed_pockets == [pytest.approx(pocket, rel=1e-9)]
