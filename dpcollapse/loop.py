@@ -203,7 +203,8 @@ class LoopState:
         """Start counting the events ``names``: a count a checkpoint stored (kept in
         ``extra`` by ``from_dict``) continues, a new one starts at 0."""
         for name in names:
-            self.event_counts[name] = int(self.extra.pop(name, 0) or 0) + self.event_counts.get(name, 0)
+            stored = self.extra.pop(name, 0) or 0   # a count (int) or an amount (float)
+            self.event_counts[name] = stored + self.event_counts.get(name, 0)
 
     def add_events(self, counts: dict[str, int]) -> None:
         for name, n in counts.items():

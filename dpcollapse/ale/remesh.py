@@ -1,8 +1,10 @@
 """Remeshing: rebuild the domain from its current boundary and carry (u, p) across.
 
 1. Gather the tagged boundary edges of every rank on rank 0 and chain them into one
-   polygon (``geometry.polygon``). A free surface folded over itself (a crossing) is
-   untangled first: the smaller loop at each crossing is cut off at the crossing point
+   polygon (``geometry.polygon``), with the holes a surgery kept. With ``surgery``, a free
+   surface that touches the bed or the mass itself is first rebuilt as the union of the mass
+   (``geometry.surgery``: pockets kept as holes or closed). Otherwise (surgery off) a free
+   surface folded over itself (a crossing) is untangled first: the smaller loop at each crossing is cut off at the crossing point
    (``polygon.untangle``; its area is the area change reported). Every existing boundary vertex stays where it is or is
    dropped; none is moved or snapped, so the toe (the bed/free-surface corner) and the
    front position are exactly continuous. Long edges are split on the edge (no area
@@ -21,9 +23,10 @@ import numpy as np
 
 from dpcollapse import parallel
 from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, boundary_edges, mesh_polygon
-from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, clip_right, offset_run,
-                                         polygon_is_simple, remove_spikes, resample, where_it_crosses,
-                                         untangle)
+from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, chain_loops, clip_right,
+                                         offset_run, polygon_is_simple, remove_spikes, resample,
+                                         where_it_crosses, untangle)
+from dpcollapse.geometry.surgery import Surgery, close_small_holes, operate, surgery_needed
 from dpcollapse.scenes.base import thickness_front
 
 
@@ -106,34 +109,68 @@ def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0) -> Bounda
 
 def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float | None,
                   max_area_change: float, trim_thickness: float = 0.0,
-                  conserve_area: bool = False) -> tuple[TaggedMesh, float, int]:
+                  conserve_area: bool = False, surgery: bool = False,
+                  surgeries: list | None = None) -> tuple[TaggedMesh, float, int]:
     """A new mesh of the current domain; returns (mesh, polygon area change, #vertices).
 
     ``trim_thickness`` [m] > 0 trims a front film thinner than it (``repair_polygon``);
-    ``conserve_area`` puts back the area that untangling, trimming and resampling changed
-    by moving the free surface's interior vertices along their normal by one distance
-    (``polygon.offset_run``; of order ΔA / surface length)."""
+    ``conserve_area`` puts back the area that surgery, untangling, trimming and resampling
+    changed by moving the free surface's interior vertices along their normal by one distance
+    (``polygon.offset_run``; of order ΔA / surface length). ``surgery``: contacts of the
+    free surface with the bed or the mass are operated on first (``geometry.surgery``); each
+    surgery done is appended to ``surgeries`` (every rank gets it)."""
     comm = tagged.mesh.comm
     all_edges, all_tags = boundary_edges(tagged)
 
     def new_boundary():       # rank 0; its failure (a ValueError) is every rank's
-        poly = _repaired(all_edges, all_tags, trim_thickness)
+        loops = chain_loops(all_edges, all_tags)
+        outer, holes = loops[0], loops[1:]
+        area_before = outer.area - sum(abs(h.area) for h in holes)
+        done = operate(outer, mesh_size, holes) if surgery else None
+        if done is not None:
+            outer, holes = done.outer, done.holes
+        holes, closed = close_small_holes(holes, mesh_size)
+        if closed and done is None:
+            done = Surgery(outer, holes, area_before, area_before + sum(closed),
+                           closed_pockets=closed)
+        elif closed:
+            done.closed_pockets += closed
+            done.holes, done.area_after = holes, done.area_after + sum(closed)
         hs = surface_mesh_size or mesh_size
 
         def target(tag: int) -> float:
             return hs if tag == SURFACE else mesh_size
 
-        area_before = poly.area_before
-        poly, _ = resample(poly.polygon, target, max_area_change)
+        poly, _ = resample(repair_polygon(outer, trim_thickness), target, max_area_change)
+        holes = [resample(h, target, max_area_change)[0] for h in holes]
+        hole_area = sum(abs(h.area) for h in holes)
         points, tags = poly.points, poly.edge_tags
         if conserve_area:
             # vertices on the bed y = 0 (a landed nose's underside) stay on it
-            moved = offset_run(points, tags, SURFACE, area_before - poly.area,
+            moved = offset_run(points, tags, SURFACE, area_before + hole_area - poly.area,
                                movable=points[:, 1] > 0)
             if polygon_is_simple(moved):
                 points = moved
-        return points, tags, BoundaryPolygon(points, tags).area - area_before
+        area_after = BoundaryPolygon(points, tags).area - hole_area
+        hole_loops = [(h.points, h.edge_tags) for h in holes]
+        return points, tags, hole_loops, area_after - area_before, done
 
-    points, tags, d_area = parallel.on_root(comm, new_boundary)   # on every rank
-    nverts = len(points)
-    return mesh_polygon(comm, points, tags, mesh_size, surface_mesh_size), d_area, nverts
+    points, tags, holes, d_area, done = parallel.on_root(comm, new_boundary)   # on every rank
+    if done is not None and surgeries is not None:
+        surgeries.append(done)
+    nverts = len(points) + sum(len(h[0]) for h in holes)
+    return (mesh_polygon(comm, points, tags, mesh_size, surface_mesh_size, holes=holes),
+            d_area, nverts)
+
+
+def boundary_contact(tagged: TaggedMesh, mesh_size: float) -> str | None:
+    """The contacts of the free surface with the bed or the mass that a surgery would act on
+    now (``geometry.surgery.surgery_needed``: "crossing", "self-contact", "bed contact"), or
+    None; the same on every rank."""
+    all_edges, all_tags = boundary_edges(tagged)
+
+    def kinds():
+        loops = chain_loops(all_edges, all_tags)
+        return surgery_needed(loops[0], mesh_size, loops[1:])
+
+    return parallel.on_root(tagged.mesh.comm, kinds)

@@ -141,6 +141,10 @@ class NumericsConfig(_Section):
     remesh_conserve_area: bool = Field(
         False, strict=True, description="Remeshing puts back the area that untangling a fold, "
         "trimming the film and resampling changed, by moving the free surface along its normal")
+    remesh_surgery: bool = Field(
+        True, strict=True, description="Remeshing rebuilds a free surface that touches the bed "
+        "or the mass itself (closer than 0.25 geometry.mesh_size, or crossing) as the union of "
+        "the mass; enclosed pockets of 4 cells or more are kept as holes, smaller ones closed")
     ale: bool = Field(True, strict=True, description="Move the mesh (false: fixed domain)")
 
     @model_validator(mode="after")

@@ -64,7 +64,8 @@ def make_domain(cfg) -> Domain:
         n = cfg.numerics
         return MovingDomain(n.remesh_min_angle, cfg.geometry.mesh_size,
                             cfg.geometry.surface_mesh_size,
-                            n.remesh_film_trim * cfg.geometry.mesh_size, n.remesh_conserve_area)
+                            n.remesh_film_trim * cfg.geometry.mesh_size, n.remesh_conserve_area,
+                            n.remesh_surgery)
     from dpcollapse.domain.fixed import FixedDomain
 
     return FixedDomain()

@@ -5,10 +5,15 @@ x ← x + Δt w, and the remesh criterion on the smallest cell angle.
 Remesh when the smallest angle is below ``numerics.remesh_min_angle`` and at least
 REMESH_COOLDOWN steps have passed since the last remesh; a remesh that could not reach the
 threshold (a sharp boundary corner) lowers it to REMESH_DEGRADATION × the angle it left,
-so that the same mesh is not rebuilt every REMESH_COOLDOWN steps.
+so that the same mesh is not rebuilt every REMESH_COOLDOWN steps. With surgery on
+(``numerics.remesh_surgery``), a contact of the free surface with the bed or the mass
+(``geometry.surgery``) also asks for a remesh (after the same cooldown), where the surgery
+is done.
 
 Events (``loop.EventSource``): ``landings``, the free-surface nodes of the nose that came
-down on the bed in accepted moves. Check of an accepted step (``check_step``): the energy
+down on the bed in accepted moves; ``surgeries`` and
+``surgery_area_change`` [m²], the boundary surgeries of remeshes and their area change (each
+one also listed in run.json's ``surgery_events``). Check of an accepted step (``check_step``): the energy
 balance of a closed mass moving with the mesh.
 
 No solve on a mesh that cannot carry one (issue 47): a mesh whose smallest angle is below
@@ -25,6 +30,7 @@ import math
 
 from dpcollapse import compat
 from dpcollapse.ale.motion import quality, retag_landed
+from dpcollapse.ale.remesh import boundary_contact
 from dpcollapse.domain.region_remesh import remesh_regions
 from dpcollapse.errors import MeshError
 
@@ -51,12 +57,18 @@ log = logging.getLogger("dpcollapse")
 
 class MovingDomain:
     moving = True
-    counted_events = ("landings",)
+    counted_events = ("landings", "surgeries", "surgery_area_change")
 
     def __init__(self, remesh_min_angle: float, mesh_size: float,
                  surface_mesh_size: float | None = None, trim_thickness: float = 0.0,
-                 conserve_area: bool = False):
+                 conserve_area: bool = False, surgery: bool = False):
         self.remesh_min_angle = remesh_min_angle
+        self.surgery = surgery
+        #: the surgeries done by remeshes (``geometry.surgery.Surgery``), not yet taken
+        self.surgeries: list = []
+        #: run.json's ``surgery_events``: one entry per surgery of this run segment
+        self.surgery_events: list[dict] = []
+        self._listed = 0       # entries of surgery_events already taken as events
         self.trim_thickness, self.conserve_area = trim_thickness, conserve_area
         self.mesh_size, self.surface_mesh_size = mesh_size, surface_mesh_size
         self.solves = 0
@@ -93,14 +105,18 @@ class MovingDomain:
         disc.mesh.geometry.x[:] = old_x
         self._attempt = 0
 
-    def take_events(self) -> dict[str, int]:
-        """Nose nodes that landed on the bed since the last call (``landings``)."""
+    def take_events(self) -> dict[str, float]:
+        """Since the last call: nose nodes that landed on the bed (``landings``), boundary
+        surgeries (``surgeries``) and their area change [m²] (``surgery_area_change``)."""
         landed, self._landed, self._attempt = self._landed + self._attempt, 0, 0
-        return {"landings": landed}
+        done, self.surgeries, self._listed = self.surgeries, [], len(self.surgery_events)
+        return {"landings": landed, "surgeries": len(done),
+                "surgery_area_change": float(sum(d.area_change for d in done))}
 
-    def counters(self) -> dict[str, int]:
-        """run.json: the mesh-velocity solves (one factorization each)."""
-        return {"mesh_velocity_factorizations": self.solves}
+    def counters(self) -> dict:
+        """run.json: the mesh-velocity solves (one factorization each) and the surgeries."""
+        out = {"mesh_velocity_factorizations": self.solves}
+        return out | ({"surgery_events": self.surgery_events} if self.surgery_events else {})
 
     def check_step(self, measures: dict, state) -> None:
         """Dissipative flow: KE(t) − KE(0) ≤ W(t), the work of gravity ρ∫f·x dx|₀ᵗ (the mesh
@@ -133,6 +149,10 @@ class MovingDomain:
         threshold = min(self.remesh_min_angle, REMESH_DEGRADATION * after)
         if q["min_angle"] < threshold and since >= REMESH_COOLDOWN:
             return f"min angle {q['min_angle']:.1f}°"
+        if self.surgery and since >= REMESH_COOLDOWN and _one_region(disc.tagged):
+            contact = boundary_contact(disc.tagged, self.mesh_size)
+            if contact:
+                return f"boundary {contact}"
         return None
 
     def remesh(self, tagged, area0: float):
@@ -144,7 +164,7 @@ class MovingDomain:
         try:
             new, _, nverts = remesh_regions(tagged, self.mesh_size, self.surface_mesh_size,
                                             REMESH_AREA_TOLERANCE * area0, self.trim_thickness,
-                                            self.conserve_area)
+                                            self.conserve_area, self.surgery, self.surgeries)
         except ValueError as exc:   # the boundary is no longer one closed loop
             raise MeshError(f"mesh degenerate: cannot remesh, {exc}") from exc
         reason = _below_floor(quality(new.mesh)["min_angle"])
@@ -161,6 +181,15 @@ class MovingDomain:
         below ``remesh_min_angle`` (set by a sharp boundary corner) say so: the next remesh
         then waits until the angle drops below REMESH_DEGRADATION × it."""
         after = state.remesh_angle_after = quality(disc.mesh)["min_angle"]
+        for done in self.surgeries[len(self.surgery_events) - self._listed:]:   # this remesh's
+            event = {"t": state.t, "step": state.step, "remesh": state.remeshes,
+                     "what": done.describe(), "area_change": done.area_change,
+                     "relative_area_change": done.area_change / state.area0,
+                     "closed_pockets": len(done.closed_pockets),
+                     "closed_area": float(sum(done.closed_pockets)), "holes": len(done.holes)}
+            self.surgery_events.append(event)
+            log.info("surgery at t = %.4f s (remesh %d): %s (%+.2e of the initial area)",
+                     state.t, state.remeshes, event["what"], event["relative_area_change"])
         if after < self.remesh_min_angle:
             log.warning("remesh %d: the new mesh's smallest angle is %.1f° (< %g°, set by the "
                         "boundary); the next remesh waits until it drops below %.1f°",
@@ -174,3 +203,16 @@ def _below_floor(min_angle: float) -> str | None:
     if min_angle < MIN_ANGLE_FLOOR:
         return f"smallest angle of {min_angle:.2f}° (< the floor {MIN_ANGLE_FLOOR:g}°)"
     return None
+
+
+def _one_region(tagged) -> bool:
+    """Whether the mesh's cells are of one material region (the surgery's domain; several
+    regions are remeshed along their interface, ``domain.region_remesh``, without it)."""
+    from mpi4py import MPI
+
+    if tagged.cell_tags is None:
+        return True
+    values = tagged.cell_tags.values
+    lo = tagged.mesh.comm.allreduce(int(values.min()) if len(values) else 2**31, op=MPI.MIN)
+    hi = tagged.mesh.comm.allreduce(int(values.max()) if len(values) else -2**31, op=MPI.MAX)
+    return lo >= hi

@@ -100,27 +100,35 @@ def _stdin_closed():
 
 
 def build_polygon_model(gmsh, points: np.ndarray, edge_tags: np.ndarray,
-                        size: Callable[[np.ndarray, int], float]) -> None:
-    """Add a plane surface bounded by ``points`` (CCW, edge i from point i to i+1).
+                        size: Callable[[np.ndarray, int], float],
+                        holes: list | None = None) -> None:
+    """Add a plane surface bounded by ``points`` (CCW, edge i from point i to i+1), with
+    ``holes`` (a list of (points, edge_tags) loops inside it; pockets kept by
+    ``geometry.surgery``).
 
     ``size(point, tag)`` gives the target mesh size at a vertex given the tag of the
     edge leaving it (the smaller of the two adjacent edges' sizes is used).
     """
     gmsh.model.add("domain")
     occ = gmsh.model.geo
-    n = len(points)
-    tags = np.asarray(edge_tags)
-    pts = []
-    for i, (x, y) in enumerate(points):
-        h = min(size(points[i], int(tags[i])), size(points[i], int(tags[i - 1])))
-        pts.append(occ.addPoint(float(x), float(y), 0.0, h))
-    lines = [occ.addLine(pts[i], pts[(i + 1) % n]) for i in range(n)]
-    for i, segments in enumerate(boundary_segments(points, tags, size)):
-        if segments:
-            occ.mesh.setTransfiniteCurve(lines[i], segments + 1)
-    loop = occ.addCurveLoop(lines)
-    surface = occ.addPlaneSurface([loop])
+    loops, all_lines, all_tags = [], [], []
+    for loop_points, loop_tags in [(points, edge_tags)] + list(holes or []):
+        loop_points, tags = np.asarray(loop_points, dtype=float), np.asarray(loop_tags)
+        n = len(loop_points)
+        pts = []
+        for i, (x, y) in enumerate(loop_points):
+            h = min(size(loop_points[i], int(tags[i])), size(loop_points[i], int(tags[i - 1])))
+            pts.append(occ.addPoint(float(x), float(y), 0.0, h))
+        lines = [occ.addLine(pts[i], pts[(i + 1) % n]) for i in range(n)]
+        for i, segments in enumerate(boundary_segments(loop_points, tags, size)):
+            if segments:
+                occ.mesh.setTransfiniteCurve(lines[i], segments + 1)
+        loops.append(occ.addCurveLoop(lines))
+        all_lines += lines
+        all_tags += [int(t) for t in tags]
+    surface = occ.addPlaneSurface(loops)
     occ.synchronize()
+    lines, tags, n = all_lines, np.asarray(all_tags), len(all_lines)
     for tag in sorted(set(int(t) for t in tags)):
         group = [lines[i] for i in range(n) if tags[i] == tag]
         gmsh.model.addPhysicalGroup(1, group, tag)
@@ -132,7 +140,7 @@ def build_polygon_model(gmsh, points: np.ndarray, edge_tags: np.ndarray,
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 1)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
     # boundary edges up to 1.5 h long (see boundary_segments) must not coarsen the inside
-    sizes = [size(points[i], int(tags[i])) for i in range(n)]
+    sizes = [size(np.asarray(points)[i], int(edge_tags[i])) for i in range(len(points))]
     gmsh.option.setNumber("Mesh.MeshSizeMax", float(max(sizes)))
     gmsh.model.mesh.generate(2)
 
@@ -175,12 +183,14 @@ def size_function(mesh_size: float, surface_mesh_size: float | None):
 
 def mesh_polygon(comm: MPI.Comm, points: np.ndarray | None, edge_tags: np.ndarray | None,
                  mesh_size: float, surface_mesh_size: float | None = None,
-                 size: Callable[[np.ndarray, int], float] | None = None) -> TaggedMesh:
-    """Mesh the polygon given on rank 0 (other ranks may pass None) over ``comm``; ``size``
-    (point, edge tag) → target size replaces ``size_function`` when given."""
+                 size: Callable[[np.ndarray, int], float] | None = None,
+                 holes: list | None = None) -> TaggedMesh:
+    """Mesh the polygon given on rank 0 (other ranks may pass None), with its ``holes``
+    ((points, edge tags) loops), over ``comm``; ``size`` (point, edge tag) → target size
+    replaces ``size_function`` when given."""
     size = size or size_function(mesh_size, surface_mesh_size)
     return _mesh_on_root(comm, lambda gmsh: build_polygon_model(
-        gmsh, np.asarray(points), np.asarray(edge_tags), size))
+        gmsh, np.asarray(points), np.asarray(edge_tags), size, holes))
 
 
 #: Floor of the time bound of one gmsh generation [s] (``DPCOLLAPSE_MESH_TIME_LIMIT``); the

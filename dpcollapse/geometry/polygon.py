@@ -19,7 +19,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-__all__ = ["BoundaryPolygon", "chain_boundary", "resample", "polygon_is_simple",
+__all__ = ["BoundaryPolygon", "chain_boundary", "chain_loops", "resample", "polygon_is_simple",
            "segments_intersect", "untangle", "remove_spikes", "clip_half_plane", "clip_right", "offset_run"]
 
 
@@ -213,6 +213,24 @@ def chain_boundary(edges: np.ndarray, tags: np.ndarray, simple: bool = True) -> 
     start = cand[np.lexsort((pts[cand, 0], pts[cand, 1]))[0]]
     pts, etag = np.roll(pts, -start, axis=0), np.roll(etag, -start)
     return BoundaryPolygon(pts, etag)
+
+
+def chain_loops(edges: np.ndarray, tags: np.ndarray) -> list[BoundaryPolygon]:
+    """The closed loops of a boundary with holes (``chain_boundary`` on each connected set
+    of edges, possibly folded), each CCW; the outer loop (largest area) first."""
+    edges = np.asarray(edges, dtype=float).reshape(-1, 2, 2)
+    tags = np.asarray(tags).reshape(-1)
+    coords = edges.reshape(-1, 2) + 0.0
+    _, inv = np.unique(coords, axis=0, return_inverse=True)
+    inv = inv.reshape(-1, 2)
+    nv = int(inv.max()) + 1 if inv.size else 0
+    graph = coo_matrix((np.ones(len(inv)), (inv[:, 0], inv[:, 1])), shape=(nv, nv))
+    ncomp, label = connected_components(graph, directed=False)
+    if ncomp == 1:
+        return [chain_boundary(edges, tags, simple=False)]
+    loops = [chain_boundary(edges[label[inv[:, 0]] == c], tags[label[inv[:, 0]] == c],
+                            simple=False) for c in range(ncomp)]
+    return sorted(loops, key=lambda loop: -loop.area)
 
 
 def where_it_crosses(points: np.ndarray, edge_tags: np.ndarray) -> str:

@@ -197,13 +197,13 @@ class StokesDiscretization(DiscretizationDefaults):
         the front of a deposit that ends in a thin film; −inf on a boundary that does not
         chain into one loop."""
         from dpcollapse.geometry.mesher import boundary_edges
-        from dpcollapse.geometry.polygon import chain_boundary
+        from dpcollapse.geometry.polygon import chain_loops
 
         edges, tags = boundary_edges(self.tagged)
         front = None
         if self.comm.rank == 0:
             try:
-                poly = chain_boundary(edges, tags, simple=False)
+                poly = chain_loops(edges, tags)[0]     # the outer loop (holes: pockets)
                 front = thickness_front(poly.points, self.film_threshold)
             except ValueError:
                 front = -math.inf
