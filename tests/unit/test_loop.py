@@ -125,12 +125,13 @@ def test_moving_domain_counts_the_landings_of_accepted_moves_only(monkeypatch):
     disc = SimpleNamespace(motion=SimpleNamespace(move=lambda dt: (None, landed.pop(0))),
                            tagged=None, mesh=SimpleNamespace(geometry=SimpleNamespace(x=np.zeros(3))))
     domain = moving.MovingDomain(30.0, 0.01)
-    assert domain.counted_events == ("landings",)
+    assert domain.counted_events == ("landings", "surgeries", "surgery_area_change")
+    none = {"surgeries": 0, "surgery_area_change": 0.0}   # no remesh: no surgery
     assert domain.move(disc, 1e-3) == (None, "retagged")
     domain.undo(disc, np.zeros(3))          # the attempt failed: its 2 nodes are back up
     assert domain.move(disc, 5e-4) == (None, "retagged")
-    assert domain.take_events() == {"landings": 3}
+    assert domain.take_events() == {"landings": 3, **none}
     assert domain.move(disc, 1e-3) == (None, None)
     domain.move(disc, 1e-3)
-    assert domain.take_events() == {"landings": 1}
-    assert domain.take_events() == {"landings": 0}
+    assert domain.take_events() == {"landings": 1, **none}
+    assert domain.take_events() == {"landings": 0, **none}
