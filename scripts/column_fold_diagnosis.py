@@ -36,8 +36,8 @@ def main(config: str, out: str, overrides: list[str]) -> None:
         x = mesh.geometry.x[:, :2]
         cells = compat.geometry_dofmap(mesh)[:compat.num_owned_cells(mesh)]
         history.append((sim.state.t, x[compat.entities_to_geometry(mesh, 1, ft.indices)].copy(),
-                        np.asarray(ft.values).copy(), x[cells].copy(), sim.state.landings,
-                        sim.state.remeshes))
+                        np.asarray(ft.values).copy(), x[cells].copy(),
+                        sim.state.event_counts.get("landings", 0), sim.state.remeshes))
         del history[:-12]
         return False
 
