@@ -52,6 +52,7 @@ from dpcollapse.io.checkpoint import previous_path
 from dpcollapse.io.diagnostics import DiagnosticsWriter
 from dpcollapse.io.runinfo import RunInfo
 from dpcollapse.io.exports import CheckpointExport, FieldExport
+from dpcollapse.domain.base import refuse_degenerate
 from dpcollapse.loop import Discretization, Events, LoopState, ModelFactory
 from dpcollapse.models.registry import model_factory
 from dpcollapse.solvers.step_control import StepController, ToleranceUnreachable, fit_to_end
@@ -240,17 +241,7 @@ class Simulation:
         parallel.agree(self.comm, lambda: self.checkpoint_export.write(
             self.factory, self.disc, {**self.state.to_dict(), "run": self.identity}))
         self.timings["output"] += time.perf_counter() - t0
-        self._prepare_watchdog()
-
-    def _prepare_watchdog(self) -> None:
-        """What ``watchdog`` writes should a stop request find no safe point: run.json
-        ``interrupted``, naming the last checkpoint (rank 0 writes run.json and the line;
-        another rank leaves silently with the same status)."""
-        st = self.state
-        where = (f"the last checkpoint (step {st.checkpoint_step}, t = {st.t:.4f} s) is whole"
-                 if st.checkpoint_step is not None else "no checkpoint was written yet")
-        if self.comm.rank == 0:
-            watchdog.prepare(self.info.path, self.info.data, where)
+        watchdog.prepare_run(self.info, self.state, self.comm.rank)
 
     def _remesh(self, reason: str) -> None:
         t0 = time.perf_counter()
@@ -387,7 +378,7 @@ class Simulation:
                 break
             self._undo_attempt(token, landed, before_landing)
             if dt / 2 < cfg.time.dt_min:
-                self._refuse_degenerate(dt, report)   # on a mesh below the floor: exit 4
+                refuse_degenerate(domain, self.disc, st.t, dt, report.message)   # exit 4, not 3
                 raise ConvergenceError(
                     f"the fixed point did not converge at t = {st.t:.4f} s even with dt = "
                     f"{dt:.1e} s (time.dt_min = {cfg.time.dt_min:g}): {report.message}, residual "
@@ -397,8 +388,8 @@ class Simulation:
             self.halvings += 1
             dt /= 2
             domain.recompute(self.disc, dt)
-        if self.controller is not None:
-            self._check_tolerance(dt, error)
+        if self.controller is not None:   # exit 3 when time.tolerance is out of reach at dt_min
+            self.unreachable.check(dt, error, cfg.time.tolerance, cfg.time.dt_min, st.t)
         self.disc.flow.accept_step()
         self.courant = dt * rate
         st.t += dt
@@ -415,26 +406,6 @@ class Simulation:
         if st.dt_target < cfg.time.dt:
             st.dt_target = min(cfg.time.dt, 1.5 * st.dt_target)
         return dt, spent, report.residual
-
-    def _check_tolerance(self, dt: float, error: float | None) -> None:
-        """ConvergenceError (exit 3) once TOLERANCE_PATIENCE steps in a row were taken at
-        time.dt_min with a local error above time.tolerance: the tolerance cannot be met."""
-        tol, dt_min = self.cfg.time.tolerance, self.cfg.time.dt_min
-        forced = error is not None and error > tol and dt <= dt_min * (1 + 1e-9)
-        if self.unreachable.record(forced):
-            raise ConvergenceError(
-                f"time.tolerance = {tol:g} cannot be met at t = {self.state.t:.4f} s: the local "
-                f"error stayed above it for {self.unreachable.count} steps in a row at "
-                f"time.dt_min = {dt_min:g} s (last {error:.2e} m/s); use a larger "
-                "time.tolerance or a smaller time.dt_min")
-
-    def _refuse_degenerate(self, dt: float, report) -> None:
-        """A step that failed at dt_min on a mesh that cannot carry a solve (the domain's
-        ``degenerate``) is the mesh's failure (exit 4), not the solver's."""
-        reason = self.domain.degenerate(self.disc)
-        if reason:
-            raise MeshError(f"mesh degenerated at t = {self.state.t:.4f} s: no convergence even "
-                            f"with dt = {dt:.1e} s ({report.message}) on a mesh with a {reason}")
 
     def _undo_attempt(self, token, landed: int, before_landing) -> None:
         """Undo a failed or rejected attempt: the mesh back, the landing rebuild dropped, the
@@ -458,7 +429,7 @@ class Simulation:
         # ended at once (a rank failed alone, a stuck mesher): run.json says so, from this rank
         abort_hook = parallel.on_abort(self._record_abort)
         agreed_stop = False   # an interrupt every rank agreed on (the ranks are in step)
-        self._prepare_watchdog()
+        watchdog.prepare_run(self.info, self.state, self.comm.rank)   # if it must end the run
         try:
             while st.t < cfg.time.end_time - 1e-12:
                 dt, iterations, residual = self._step()
