@@ -36,8 +36,9 @@ from dpcollapse import compat, parallel, watchdog
 from dpcollapse.config import Config, config_to_dict, save_config
 from dpcollapse.errors import ConfigError, ConvergenceError, DpcollapseError, Interrupted, MeshError
 from dpcollapse.fingerprint import check_identity, config_fingerprint
+from dpcollapse.domain.base import refuse_degenerate
 from dpcollapse.geometry.mesher import TaggedMesh
-from dpcollapse.io.checkpoint import NOT_RESTORED, previous_path
+from dpcollapse.io.checkpoint import previous_path, take_not_restored
 from dpcollapse.io.diagnostics import DiagnosticsWriter
 from dpcollapse.io.exports import CheckpointExport, FieldExport
 from dpcollapse.io.runinfo import RunInfo
@@ -82,11 +83,7 @@ class Simulation:
             self._use(disc)
             self._last_measures = self.disc.measures()
             log.info("resuming from t = %.4f s (step %d)", self.state.t, self.state.step)
-            #: what the checkpoint did not carry (an older version's): said, not silent
-            lost = self.state.extra.pop(NOT_RESTORED, [])
-            if lost:
-                log.warning("the checkpoint lacks %s: the resumed steps differ from an "
-                            "uninterrupted run's", "; ".join(lost))
+            lost = take_not_restored(self.state.extra)   # an older version's: said, not silent
         else:
             self.state = LoopState(dt_target=cfg.time.dt)
             self._use(self.factory.start(comm))
@@ -110,9 +107,8 @@ class Simulation:
                 {"step": self.state.step, "t": self.state.t, "remeshes": self.state.remeshes,
                  **self.state.event_counts, **self._last_measures}))
         self.info = RunInfo(self.run_dir / "run.json", comm, config_to_dict(cfg),
-                            run_id=self.identity["run_id"], history_plot=self.disc.history_plot)
-        if cfg.time_scheme_chosen:   # the time keys a method chosen with --set brought
-            self.info.update(time_scheme_chosen=cfg.time_scheme_chosen)
+                            run_id=self.identity["run_id"], history_plot=self.disc.history_plot,
+                            time_scheme_chosen=cfg.time_scheme_chosen)   # None: the config's
         if resume:   # this segment's start: exact (every history restored) or what was not
             self.info.update(resume={"t": self.state.t, "step": self.state.step,
                                      "exact": not lost, "not_restored": lost})
@@ -157,17 +153,7 @@ class Simulation:
         parallel.agree(self.comm, lambda: self.checkpoint_export.write(
             self.factory, self.disc, {**self.state.to_dict(), "run": self.identity}))
         self.timings["output"] += time.perf_counter() - t0
-        self._prepare_watchdog()
-
-    def _prepare_watchdog(self) -> None:
-        """What ``watchdog`` writes should a stop request find no safe point: run.json
-        ``interrupted``, naming the last checkpoint (rank 0 writes run.json and the line;
-        another rank leaves silently with the same status)."""
-        st = self.state
-        where = (f"the last checkpoint (step {st.checkpoint_step}, t = {st.t:.4f} s) is whole"
-                 if st.checkpoint_step is not None else "no checkpoint was written yet")
-        if self.comm.rank == 0:
-            watchdog.prepare(self.info.path, self.info.data, where)
+        watchdog.prepare_run(self.info, self.state, self.comm.rank)
 
     def _remesh(self, reason: str) -> None:
         t0 = time.perf_counter()
@@ -262,7 +248,7 @@ class Simulation:
                 break
             self._undo_attempt(token, retagged, before_landing)
             if dt / 2 < cfg.time.dt_min:
-                self._refuse_degenerate(dt, report)   # on a mesh below the floor: exit 4
+                refuse_degenerate(domain, self.disc, st.t, dt, report.message)   # exit 4, not 3
                 raise ConvergenceError(
                     f"the fixed point did not converge at t = {st.t:.4f} s even with dt = "
                     f"{dt:.1e} s (time.dt_min = {cfg.time.dt_min:g}): {report.message}, residual "
@@ -280,14 +266,6 @@ class Simulation:
         st.dt_target = self.steps.next_target(dt, st.dt_target, report.iterations,
                                               self.disc.flow.iteration_scale, model_limit)
         return dt, spent, report.residual
-
-    def _refuse_degenerate(self, dt: float, report) -> None:
-        """A step that failed at dt_min on a mesh that cannot carry a solve (the domain's
-        ``degenerate``) is the mesh's failure (exit 4), not the solver's."""
-        reason = self.domain.degenerate(self.disc)
-        if reason:
-            raise MeshError(f"mesh degenerated at t = {self.state.t:.4f} s: no convergence even "
-                            f"with dt = {dt:.1e} s ({report.message}) on a mesh with a {reason}")
 
     def _undo_attempt(self, token, retagged, before_landing) -> None:
         """Undo a failed or rejected attempt: the mesh back, the rebuild on new facet tags
@@ -311,7 +289,7 @@ class Simulation:
         # ended at once (a rank failed alone, a stuck mesher): run.json says so, from this rank
         abort_hook = parallel.on_abort(self.info.record_abort)
         agreed_stop = False   # an interrupt every rank agreed on (the ranks are in step)
-        self._prepare_watchdog()
+        watchdog.prepare_run(self.info, self.state, self.comm.rank)   # if it must end the run
         try:
             while st.t < cfg.time.end_time - 1e-12:
                 dt, iterations, residual = self._step()

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import logging
 
-from dpcollapse.errors import ConvergenceError
 from dpcollapse.solvers.step_control import StepController, ToleranceUnreachable, fit_to_end
 
 log = logging.getLogger("dpcollapse")
@@ -78,14 +77,7 @@ class StepSize:
         time.dt_min with a local error above time.tolerance: the tolerance cannot be met."""
         if self.controller is None:
             return
-        tol, dt_min, error = self.time.tolerance, self.time.dt_min, self.error
-        forced = error is not None and error > tol and dt <= dt_min * (1 + 1e-9)
-        if self.unreachable.record(forced):
-            raise ConvergenceError(
-                f"time.tolerance = {tol:g} cannot be met at t = {t:.4f} s: the local "
-                f"error stayed above it for {self.unreachable.count} steps in a row at "
-                f"time.dt_min = {dt_min:g} s (last {error:.2e} m/s); use a larger "
-                "time.tolerance or a smaller time.dt_min")
+        self.unreachable.check(dt, self.error, self.time.tolerance, self.time.dt_min, t)
 
     def next_target(self, dt: float, target: float, iterations: int, scale: float,
                     model_limit: float) -> float:

@@ -166,6 +166,17 @@ def prepare(run_json: Path, data: dict, where: str) -> None:
             _python_state["line"] = line
 
 
+def prepare_run(info, state, rank: int) -> None:
+    """:func:`prepare` for the time loop: ``info`` its RunInfo (run.json), ``state`` its
+    LoopState (the last checkpoint's step and time); rank 0 only (it writes run.json and
+    the line; another rank leaves silently with the same status)."""
+    if rank != 0:
+        return
+    where = (f"the last checkpoint (step {state.checkpoint_step}, t = {state.t:.4f} s) is whole"
+             if state.checkpoint_step is not None else "no checkpoint was written yet")
+    prepare(info.path, info.data, where)
+
+
 def prepare_line(where: str) -> None:
     """Only the line (no run.json yet: the set-up)."""
     line = (f"dpcollapse: error: {_rank_prefix()}interrupted: stopped at once, {_bound:g} s "

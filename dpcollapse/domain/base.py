@@ -69,3 +69,15 @@ def make_domain(cfg) -> Domain:
     from dpcollapse.domain.fixed import FixedDomain
 
     return FixedDomain()
+
+
+def refuse_degenerate(domain: Domain, disc, t: float, dt: float, message: str) -> None:
+    """A step that failed down to time.dt_min (at time ``t``, last try ``dt``, the solver's
+    ``message``) on a mesh that cannot carry a solve (``domain.degenerate``) is the mesh's
+    failure: MeshError (exit 4), not the solver's ConvergenceError (exit 3)."""
+    reason = domain.degenerate(disc)
+    if reason:
+        from dpcollapse.errors import MeshError
+
+        raise MeshError(f"mesh degenerated at t = {t:.4f} s: no convergence even with dt = "
+                        f"{dt:.1e} s ({message}) on a mesh with a {reason}")

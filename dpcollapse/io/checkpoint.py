@@ -10,6 +10,7 @@ on the global mesh, a run may be resumed on a different number of MPI ranks.
 from __future__ import annotations
 
 import json
+import logging
 import os
 from pathlib import Path
 
@@ -26,6 +27,18 @@ from dpcollapse.transfer import CellwiseField
 #: version's checkpoint): the resumed steps then differ from the uninterrupted run's, and the
 #: resume says so (a log line and run.json's "resume")
 NOT_RESTORED = "not_restored"
+
+
+def take_not_restored(extra: dict) -> list[str]:
+    """The histories a checkpoint did not carry (``NOT_RESTORED``: an older version's),
+    removed from the loaded state's ``extra`` and said in one warning line: the resumed
+    steps then differ from an uninterrupted run's."""
+    lost = extra.pop(NOT_RESTORED, [])
+    if lost:
+        logging.getLogger("dpcollapse").warning(
+            "the checkpoint lacks %s: the resumed steps differ from an uninterrupted run's",
+            "; ".join(lost))
+    return lost
 
 
 def note_not_restored(state: dict, what: str) -> None:

@@ -68,7 +68,9 @@ class RunInfo:
             "config": config,
             "timings": {},
             "summary": {},
-            **entries,   # what the model declares for the run's readers (history_plot)
+            # what the model declares for the run's readers (history_plot), the time scheme a
+            # method chose (None: not set)
+            **{k: v for k, v in entries.items() if v is not None},
         }
         if self.path.exists():  # resumed: keep the history of earlier segments
             try:

@@ -106,3 +106,17 @@ class ToleranceUnreachable:
         """``forced``: this step was accepted at dt_min above the tolerance."""
         self.count = self.count + 1 if forced else 0
         return self.count >= self.limit
+
+    def check(self, dt: float, error: float | None, tolerance: float, dt_min: float,
+              t: float) -> None:
+        """Count an accepted step ``dt`` [s] of local error ``error`` [m/s]; ConvergenceError
+        (exit 3) once ``limit`` steps in a row were at ``dt_min`` above ``tolerance``."""
+        from dpcollapse.errors import ConvergenceError
+
+        forced = error is not None and error > tolerance and dt <= dt_min * (1 + 1e-9)
+        if self.record(forced):
+            raise ConvergenceError(
+                f"time.tolerance = {tolerance:g} cannot be met at t = {t:.4f} s: the local "
+                f"error stayed above it for {self.count} steps in a row at time.dt_min = "
+                f"{dt_min:g} s (last {error:.2e} m/s); use a larger time.tolerance or a smaller "
+                "time.dt_min")

@@ -238,7 +238,14 @@ def _stop_a_stuck_run(tmp_path, ranks: int):
     t0 = time.monotonic()
     for pid in pids:
         os.kill(pid, signal.SIGTERM)
-    proc.stdout_text, proc.stderr_text = proc.communicate(timeout=120)
+    try:
+        proc.stdout_text, proc.stderr_text = proc.communicate(timeout=120)
+    except subprocess.TimeoutExpired:   # the stuck ranks are deaf to SIGTERM: end them
+        for pid in pids:
+            os.kill(pid, signal.SIGKILL)
+        proc.kill()
+        proc.communicate()
+        raise
     return proc, time.monotonic() - t0, out
 
 
