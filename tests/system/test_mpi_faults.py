@@ -65,17 +65,17 @@ _LAUNCHER = textwrap.dedent("""
         compat.write_xdmf_step = write
     elif fault == "stuck_in_c":             # a step that never returns, inside C with the
         import ctypes                       # GIL held (MUMPS on a degenerate mesh): a mutex
-        from dpcollapse.simulation import Simulation    # locked twice, deaf to signals
-        original, calls = Simulation._check_energy, [0]
-        def check(self, m):
+        from dpcollapse.domain.moving import MovingDomain    # locked twice, deaf to signals
+        original, calls = MovingDomain.check_step, [0]
+        def check(self, m, state):
             calls[0] += 1
             if calls[0] == 4:
                 open(os.environ["DPC_STUCK_FILE"] + f".{rank}", "w").close()
                 mutex = ctypes.create_string_buffer(64)
                 ctypes.PyDLL(None).pthread_mutex_lock(mutex)
                 ctypes.PyDLL(None).pthread_mutex_lock(mutex)
-            return original(self, m)
-        Simulation._check_energy = check
+            return original(self, m, state)
+        MovingDomain.check_step = check
     from dpcollapse.cli import entry
     sys.argv = ["dpcollapse", *sys.argv[1:]]
     entry()
