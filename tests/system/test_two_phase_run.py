@@ -198,3 +198,21 @@ def test_the_energy_consistent_inertia_takes_the_spurious_push_off_the_front(tmp
         assert abs(summary["area_drift"]) < 1e-5
         peak[inertia] = max(read_diagnostics(out / "diagnostics.csv")["max_speed"])
     assert peak["energy"] < 1.25 < 1.4 < peak["velocity"], peak
+
+
+def test_the_mean_inertia_gives_the_front_its_momentum_without_the_push(tmp_path):
+    """model.inertia: mean (docs/benchmarks/2026-12-07-two-phase-columns-cause.md): ½(ρⁿ + ρⁿ⁻¹)
+    in place of energy's √(ρⁿρⁿ⁻¹) gives a filling cell the half of the arriving momentum
+    that energy withholds (the tall columns' shortfall), without velocity's spurious push:
+    on the 2 cm trapezoid to 0.3 s (the compression along the interface normal) the peak
+    grain speed is 1.075 m/s with mean against 1.046 with energy (measured; velocity: 1.34,
+    the moving mesh's 1.10)."""
+    peak = {}
+    for inertia in ("energy", "mean"):
+        out = tmp_path / inertia
+        summary = simulation("rigid.yaml", TRAPEZOID + [f"model.inertia={inertia}"], out,
+                             comm=MPI.COMM_SELF).run()
+        assert summary["status"] == "end_time", summary
+        assert abs(summary["area_drift"]) < 1e-5
+        peak[inertia] = max(read_diagnostics(out / "diagnostics.csv")["max_speed"])
+    assert 1.01 * peak["energy"] < peak["mean"] < 1.2, peak
