@@ -137,12 +137,16 @@ class TwoPhaseModel(_Section):
         "cell; holds a heap with grain_pressure effective) or pointwise (at every quadrature "
         "point; the default before). The walls' friction reads it at the wall "
         "(docs/benchmarks/2026-12-04-cut-cell-pressure.md)")
-    inertia: Literal["velocity", "energy"] = _f(
+    inertia: Literal["velocity", "energy", "mean"] = _f(
         "energy", "", "Densities of the time derivative: energy (rho(c^n) u^{n+1} - "
         "sqrt(rho(c^n) rho(c^{n-1})) u^n)/dt (default since 2026-12-05; Guermond & Quartapelle: "
         "with the skew-symmetric convection the consistent rho Du/Dt) or velocity rho(c^n) "
         "(u^{n+1} - u^n)/dt (the default before: leaves a force (1/2)(d rho/dt) u that pushes "
-        "the front, runouts growing with refinement; docs/benchmarks/2026-12-05-two-phase-inertia.md)")
+        "the front, runouts growing with refinement; docs/benchmarks/2026-12-05-two-phase-inertia.md) "
+        "or mean (rho(c^n) u^{n+1} - (rho(c^n) + rho(c^{n-1}))/2 u^n)/dt: the force (1/2)(d rho/dt) u "
+        "linear in the step's change of rho, which energy's geometric mean is only for small "
+        "ratios (a drag on the front growing with the step: the tall columns 10 % short; "
+        "docs/benchmarks/2026-12-07-two-phase-columns-cause.md)")
     courant: Number = _f(
         0.4, "", "Courant number of the sub-cycled explicit advection of c (outflow of a cell per "
         "sub-step over its content)", gt=0, le=0.5)

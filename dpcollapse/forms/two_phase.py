@@ -316,7 +316,7 @@ def skew_convection(rho, u_iter, u, v, n, dx, ds_open):
 
 
 #: the densities of the time derivative (``model.inertia``)
-INERTIAS = ("velocity", "energy")
+INERTIAS = ("velocity", "energy", "mean")
 
 
 def previous_momentum(rho, rho_previous, dt, u_old, v, dx, kind: str = "velocity"):
@@ -324,6 +324,7 @@ def previous_momentum(rho, rho_previous, dt, u_old, v, dx, kind: str = "velocity
 
         velocity   ∫ ρ(cⁿ) uⁿ/Δt · v               ρⁿ (u^{n+1} − uⁿ)/Δt
         energy     ∫ √(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ/Δt · v     (ρⁿ u^{n+1} − √(ρⁿ ρⁿ⁻¹) uⁿ)/Δt
+        mean       ∫ ½(ρ(cⁿ) + ρ(cⁿ⁻¹)) uⁿ/Δt · v   (ρⁿ u^{n+1} − ½(ρⁿ + ρⁿ⁻¹) uⁿ)/Δt
 
     ``energy`` is Guermond & Quartapelle's (2000) σ(σu)_t with σ = √ρ, = ρ u_t + ½ (∂ρ/∂t) u.
     The skew-symmetric convection (``skew_convection``) is ρ (u·∇)u + ½ ∇·(ρu) u, and with
@@ -332,7 +333,15 @@ def previous_momentum(rho, rho_previous, dt, u_old, v, dx, kind: str = "velocity
     the light fluid: ∂ρ/∂t ~ [ρ] |u|/ΔX, a one-cell tongue driven the harder the finer the
     cells). ``energy`` cancels it, and tested with u^{n+1} the two halves give
     ½ ρⁿ|u^{n+1}|² − ½ ρⁿ⁻¹|uⁿ|² + ½ |σⁿu^{n+1} − σⁿ⁻¹uⁿ|²: the kinetic energy
-    ½ ∫ ρ(cⁿ⁻¹)|uⁿ|² of the previous step telescopes, whatever c's transport does."""
+    ½ ∫ ρ(cⁿ⁻¹)|uⁿ|² of the previous step telescopes, whatever c's transport does.
+    ``mean`` is ρⁿ (u^{n+1} − uⁿ)/Δt + ½ ((ρⁿ − ρⁿ⁻¹)/Δt) uⁿ: the force ½ (∂ρ/∂t) u that the
+    skew convection's ½ ∇·(ρu) u balances, linear in the step's change of ρ for any ratio
+    ρⁿ/ρⁿ⁻¹. ``energy``'s ρⁿ − √(ρⁿ ρⁿ⁻¹) is that only while ρⁿ/ρⁿ⁻¹ ≈ 1: in a cell the
+    front enters it is up to ρⁿ (the whole momentum of the grains arriving, against the
+    skew convection's half), a drag on the front that grows with the step (the cells
+    filling in fewer steps)."""
     kind = _one_of(kind, INERTIAS, "inertia")
+    if kind == "mean":
+        return 0.5 * (rho + rho_previous) / dt * ufl.inner(u_old, v) * dx
     weight = rho if kind == "velocity" else ufl.sqrt(rho * rho_previous)
     return weight / dt * ufl.inner(u_old, v) * dx
