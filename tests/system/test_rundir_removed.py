@@ -27,23 +27,17 @@ def _lines(text: str) -> list[str]:
     return [ln for ln in text.splitlines() if ln.strip()]
 
 
-def test_rm_rf_of_the_run_directory_during_a_run_is_exit_5_with_one_line(tmp_path):
-    """`rm -rf` of the run directory once the first steps' fields are written (issue 47:
-    at 4 s): the run ends within 60 s with exit 5 and one line, and nothing is made again
-    in its place."""
-    out = tmp_path / "run"
-    proc = subprocess.Popen(
-        dpcollapse_cmd() + ["run", RIGID, "--out", str(out), "--quiet",
-                            "--set", "geometry.mesh_size=0.02", "--set", "time.end_time=0.5",
-                            "--set", "time.output_every=1"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=clean_env(), cwd=ROOT)
+def _remove_once_fields_are_written(proc, out) -> str:
+    """`rm -rf` ``out`` once the run ``proc`` wrote its second step's fields (retried: the
+    removal races the run's writes into fields/); the run's stderr, which must come within
+    60 s of the removal."""
     try:
         second_step = out / "fields" / "step_000001.h5"
         deadline = time.monotonic() + 300
         while not second_step.exists() and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
         assert proc.poll() is None, "the run ended before its directory could be removed"
-        for _ in range(20):          # `rm -rf` races the run's writes into fields/
+        for _ in range(20):
             shutil.rmtree(out, ignore_errors=True)
             if not out.exists():
                 break
@@ -54,6 +48,20 @@ def test_rm_rf_of_the_run_directory_during_a_run_is_exit_5_with_one_line(tmp_pat
             proc.kill()
             proc.wait()
     assert time.monotonic() - removed < 60
+    return err
+
+
+def test_rm_rf_of_the_run_directory_during_a_run_is_exit_5_with_one_line(tmp_path):
+    """`rm -rf` of the run directory once the first steps' fields are written (issue 47:
+    at 4 s): the run ends within 60 s with exit 5 and one line, and nothing is made again
+    in its place."""
+    out = tmp_path / "run"
+    proc = subprocess.Popen(
+        dpcollapse_cmd() + ["run", RIGID, "--out", str(out), "--quiet",
+                            "--set", "geometry.mesh_size=0.02", "--set", "time.end_time=0.5",
+                            "--set", "time.output_every=1"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=clean_env(), cwd=ROOT)
+    err = _remove_once_fields_are_written(proc, out)
     assert proc.returncode == 5, err
     lines = _lines(err)
     assert len(lines) == 1 and "Traceback" not in err, err
@@ -109,23 +117,7 @@ def test_rm_rf_of_the_run_directory_under_mpirun_is_exit_5(tmp_path):
     proc = _mpirun(tmp_path, "run", RIGID, "--out", out, "--quiet", "--set",
                    "geometry.mesh_size=0.02", "--set", "time.end_time=0.5", "--set",
                    "time.output_every=1", popen=True)
-    try:
-        second_step = out / "fields" / "step_000001.h5"
-        deadline = time.monotonic() + 300
-        while not second_step.exists() and proc.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.05)
-        assert proc.poll() is None, "the run ended before its directory could be removed"
-        for _ in range(20):
-            shutil.rmtree(out, ignore_errors=True)
-            if not out.exists():
-                break
-        removed = time.monotonic()
-        _, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert time.monotonic() - removed < 60
+    err = _remove_once_fields_are_written(proc, out)
     assert proc.returncode == 5, err[-3000:]
     lines = _our_lines(err)
     assert len(lines) == 1 and _says_removed(lines[0]), err[-3000:]
