@@ -9,7 +9,7 @@ between bytecodes: the request was lost and ``timeout`` could not stop the run.
 The watchdog: a thread that blocks on the read end of Python's signal wake-up pipe
 (``signal.set_wakeup_fd``: the C-level handler writes the signal number at once, whatever
 the main thread does). After SIGINT or SIGTERM it first writes, at once, an early run.json
-(status ``interrupted``: the request arrived during the step after the last checkpoint; if
+(status ``interrupted``: the request arrived during a step after the last checkpoint; if
 the status stays, the process was ended before that step finished). Under Open MPI 4.1,
 SIGTERM to ``mpirun`` is forwarded to the ranks and followed 1 s later by SIGKILL: without
 this record run.json stayed ``running`` although the last checkpoint is whole. The loop's
@@ -168,13 +168,13 @@ def safe_point() -> None:
 
 def prepare(run_json: Path, data: dict, where: str, early_where: str | None = None) -> None:
     """What the watchdog writes: at once on SIGINT/SIGTERM, ``run_json`` as ``data`` with
-    status ``interrupted`` and the early reason (the request arrived during the step after
+    status ``interrupted`` and the early reason (the request arrived during a step after
     ``early_where``, default ``where``); if it fires, the same with the reason (``where``:
     the last checkpoint) and the one line."""
     reason = (f"stopped at once: the run did not reach the end of its step within {_bound:g} s "
               f"of the stop request (SIGINT/SIGTERM); {where}")
     early_reason = (
-        f"a stop request (SIGINT/SIGTERM) arrived during the step after "
+        f"a stop request (SIGINT/SIGTERM) arrived during a step after "
         f"{early_where or where}; if this status stays, the process was ended before that "
         "step finished (e.g. by mpirun after forwarding the signal)")
 

@@ -5,7 +5,7 @@
  * It blocks on the read end of Python's signal wake-up pipe (signal.set_wakeup_fd: the
  * signal number is written by the C-level handler, wherever the main thread is). After
  * SIGINT or SIGTERM it first writes the prepared early run.json at once (status
- * interrupted: "a stop request arrived during the step after the last checkpoint"; the
+ * interrupted: "a stop request arrived during a step after the last checkpoint"; the
  * process may be ended before that step finishes, e.g. by mpirun 1 s after it forwarded
  * the signal, and run.json must not stay "running"), then waits STOP_BOUND seconds for the main thread to reach a safe point
  * (dpc_safe_point, called at the end of every time step); if none comes, it writes the
