@@ -379,6 +379,7 @@ class Simulation:
             summary["error"] = error
         self.timings["total"] = time.perf_counter() - self.wall0
         self.info.update(status=status, summary=summary, timings=self.timings)
+        watchdog.final()   # this write replaces the watchdog's early record, never the reverse
         self.info.write()
         return summary
 

@@ -8,7 +8,13 @@ between bytecodes: the request was lost and ``timeout`` could not stop the run.
 
 The watchdog: a thread that blocks on the read end of Python's signal wake-up pipe
 (``signal.set_wakeup_fd``: the C-level handler writes the signal number at once, whatever
-the main thread does). After SIGINT or SIGTERM it waits :data:`STOP_BOUND` seconds
+the main thread does). After SIGINT or SIGTERM it first writes, at once, an early run.json
+(status ``interrupted``: the request arrived during a step after the last checkpoint; if
+the status stays, the process was ended before that step finished). Under Open MPI 4.1,
+SIGTERM to ``mpirun`` is forwarded to the ranks and followed 1 s later by SIGKILL: without
+this record run.json stayed ``running`` although the last checkpoint is whole. The loop's
+own last run.json (:func:`final` first) replaces it. Then the thread waits
+:data:`STOP_BOUND` seconds
 (``DPCOLLAPSE_STOP_BOUND`` sets it) for the main thread to reach a safe point
 (:func:`safe_point`, the end of each time step, where the loop honours the request). If
 none comes it writes the prepared run.json (:func:`prepare`: status ``interrupted`` and
@@ -54,7 +60,8 @@ _native = None          # the loaded library, or None (the Python thread is used
 _installed = False
 _armed = False
 _bound = STOP_BOUND
-_python_state = {"safe_points": 0, "record": None, "line": None}
+_python_state = {"safe_points": 0, "record": None, "early": None, "line": None,
+                 "final": False}
 _python_lock = threading.Lock()
 
 
@@ -103,7 +110,8 @@ def _load():
     lib.dpc_start.argtypes = [ctypes.c_int]
     lib.dpc_arm.argtypes = [ctypes.c_double]
     lib.dpc_prepare.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p,
-                                ctypes.c_size_t, ctypes.c_char_p, ctypes.c_size_t]
+                                ctypes.c_size_t, ctypes.c_char_p, ctypes.c_size_t,
+                                ctypes.c_char_p, ctypes.c_size_t]
     return lib
 
 
@@ -131,9 +139,23 @@ def install(native: bool = True) -> None:
 def arm() -> None:
     """From now on SIGINT/SIGTERM starts the clock (the run command)."""
     global _armed, _bound
+    with _python_lock:
+        _python_state["final"] = False
     _armed, _bound = True, stop_bound()
     if _native is not None:
         _native.dpc_arm(_bound)
+
+
+def final() -> None:
+    """The main thread is about to write its own last run.json (the run ends: completed,
+    failed, or interrupted at a safe point): from now on the early record is not written;
+    one being written is renamed into place before this returns (the same lock), so the
+    main thread's write comes after it and wins."""
+    if _native is not None:
+        _native.dpc_final()
+    else:
+        with _python_lock:
+            _python_state["final"] = True
 
 
 def safe_point() -> None:
@@ -144,25 +166,37 @@ def safe_point() -> None:
         _python_state["safe_points"] += 1
 
 
-def prepare(run_json: Path, data: dict, where: str) -> None:
-    """What the watchdog writes if it fires: ``run_json`` as ``data`` with status
-    ``interrupted`` and the reason (``where``: the last checkpoint), and the one line."""
+def prepare(run_json: Path, data: dict, where: str, early_where: str | None = None) -> None:
+    """What the watchdog writes: at once on SIGINT/SIGTERM, ``run_json`` as ``data`` with
+    status ``interrupted`` and the early reason (the request arrived during a step after
+    ``early_where``, default ``where``); if it fires, the same with the reason (``where``:
+    the last checkpoint) and the one line."""
     reason = (f"stopped at once: the run did not reach the end of its step within {_bound:g} s "
               f"of the stop request (SIGINT/SIGTERM); {where}")
-    summary = {**data.get("summary", {}), "error": reason}
-    record = json.dumps({**data, "status": "interrupted", "summary": summary}, indent=2,
-                        default=float) + "\n"
+    early_reason = (
+        f"a stop request (SIGINT/SIGTERM) arrived during a step after "
+        f"{early_where or where}; if this status stays, the process was ended before that "
+        "step finished (e.g. by mpirun after forwarding the signal)")
+
+    def text(why: str) -> str:
+        summary = {**data.get("summary", {}), "error": why}
+        return json.dumps({**data, "status": "interrupted", "summary": summary}, indent=2,
+                          default=float) + "\n"
+
+    record, early = text(reason), text(early_reason)
     rank = _rank_prefix()
     line = (f"dpcollapse: error: {rank}interrupted: {reason}; the run directory is valid, "
             "continue with --resume\n")
     run_json = Path(run_json)
     tmp = run_json.with_name(f"{run_json.name}.{os.getpid()}.watchdog.tmp")
     if _native is not None:
-        raw, msg = record.encode(), line.encode()
-        _native.dpc_prepare(str(run_json).encode(), str(tmp).encode(), raw, len(raw), msg, len(msg))
+        raw, first, msg = record.encode(), early.encode(), line.encode()
+        _native.dpc_prepare(str(run_json).encode(), str(tmp).encode(), raw, len(raw),
+                            first, len(first), msg, len(msg))
     else:
         with _python_lock:
             _python_state["record"] = (run_json, tmp, record)
+            _python_state["early"] = (run_json, tmp, early)
             _python_state["line"] = line
 
 
@@ -172,9 +206,15 @@ def prepare_run(info, state, rank: int) -> None:
     the line; another rank leaves silently with the same status)."""
     if rank != 0:
         return
-    where = (f"the last checkpoint (step {state.checkpoint_step}, t = {state.t:.4f} s) is whole"
-             if state.checkpoint_step is not None else "no checkpoint was written yet")
-    prepare(info.path, info.data, where)
+    if state.checkpoint_step is not None:
+        where = f"the last checkpoint (step {state.checkpoint_step}, t = {state.t:.4f} s) is whole"
+        early = (f"the last checkpoint (step {state.checkpoint_step}, t = {state.t:.4f} s): "
+                 "it is whole, continue with --resume")
+    else:
+        where = "no checkpoint was written yet"
+        early = ("the start, before the first checkpoint: nothing to resume, start the run "
+                 "again")
+    prepare(info.path, info.data, where, early)
 
 
 def prepare_line(where: str) -> None:
@@ -183,10 +223,11 @@ def prepare_line(where: str) -> None:
             f"after the stop request (SIGINT/SIGTERM); {where}\n")
     if _native is not None:
         msg = line.encode()
-        _native.dpc_prepare(b"", b"", None, 0, msg, len(msg))
+        _native.dpc_prepare(b"", b"", None, 0, None, 0, msg, len(msg))
     else:
         with _python_lock:
-            _python_state["record"], _python_state["line"] = None, line
+            _python_state["record"], _python_state["early"] = None, None
+            _python_state["line"] = line
 
 
 def _rank_prefix() -> str:
@@ -210,6 +251,15 @@ def _python_watch(read_fd: int) -> None:
         if data[0] in (signal.SIGINT, signal.SIGTERM) and _armed:
             break
     seen, start = _python_state["safe_points"], time.monotonic()
+    # The early record at once, under the lock :func:`final` takes (the race with the main
+    # thread's last run.json: see watchdog_native.c); skipped after a safe point.
+    early_written = False
+    with _python_lock:
+        early = _python_state["early"]
+        if (not _python_state["final"] and _python_state["safe_points"] == seen
+                and early is not None and _still_running(early[0])):
+            _write(early)
+            early_written = True
     while time.monotonic() - start < _bound:
         time.sleep(0.02)
         if _python_state["safe_points"] != seen:
@@ -217,11 +267,40 @@ def _python_watch(read_fd: int) -> None:
     with _python_lock:
         record, line = _python_state["record"], _python_state["line"]
         try:
-            if record is not None:
-                path, tmp, text = record
-                Path(tmp).write_text(text)
-                os.replace(tmp, path)
+            # not over the main thread's own last run.json, nor another rank's record
+            if (not _python_state["final"] and record is not None
+                    and (early_written or _still_running(record[0]))):
+                _write(record)
             if line:
                 os.write(2, line.encode())
         finally:
             os._exit(EXIT_INTERRUPTED)
+
+
+def _still_running(path) -> bool:
+    """run.json still says "running" (or cannot be read); its first key is the status.
+    The same test as the native thread's (``still_running``)."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096)
+    except OSError:
+        return True
+    at = head.find(b'"status"')
+    if at < 0:
+        return True
+    return head[at + 8:].lstrip(b" :\n\t").startswith(b'"running"')
+
+
+def _write(record) -> None:
+    """``(path, tmp, text)``: text to tmp, fsync, rename onto path (the Python thread)."""
+    if record is None:
+        return
+    path, tmp, text = record
+    try:
+        with open(tmp, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except OSError:
+        pass

@@ -24,6 +24,11 @@ _CHILD = textwrap.dedent("""
     assert (watchdog._native is not None) == native
     watchdog.arm()
     run_json.write_text(json.dumps({"status": "running", "summary": {}}))
+    if mode == "finished":         # the run wrote its last run.json, then the signal came
+        watchdog.final()
+        run_json.write_text(json.dumps({"status": "end_time", "summary": {}}))
+    if mode == "other_rank":       # rank 1 wrote "failed" and ended the job (MPI_Abort:
+        run_json.write_text(json.dumps({"status": "failed", "summary": {}}))   # SIGTERM here)
     watchdog.prepare(run_json, {"status": "running", "summary": {"t": 0.5}},
                      "the last checkpoint (step 7, t = 0.5000 s) is whole")
     signal.signal(signal.SIGTERM, lambda *args: None)   # the loop's handler: records only
@@ -33,7 +38,11 @@ _CHILD = textwrap.dedent("""
         while True:
             sum(range(1000))
     time.sleep(0.5)
+    print("early:", json.dumps(json.loads(run_json.read_text())))   # while still in the step
     watchdog.safe_point()          # the end of the step: the loop honours the request
+    if mode == "final":            # the loop's own last run.json replaces the early one
+        watchdog.final()
+        run_json.write_text(json.dumps({"status": "interrupted", "summary": {"t": 0.6}}))
     time.sleep(3)
     print("ended normally")
 """)
@@ -46,6 +55,12 @@ def _child(tmp_path, native: bool, mode: str):
                            mode, str(tmp_path / "run.json")], env=env, cwd=ROOT,
                           capture_output=True, text=True, timeout=120)
     return done, time.monotonic() - t0
+
+
+def _early(done) -> dict:
+    """run.json as the child read it 0.5 s after the signal, still inside its step."""
+    line = next(ln for ln in done.stdout.splitlines() if ln.startswith("early: "))
+    return json.loads(line[len("early: "):])
 
 
 @pytest.mark.parametrize("native", [True, False], ids=["native", "python"])
@@ -66,4 +81,37 @@ def test_no_safe_point_within_the_bound_is_an_interrupt(tmp_path, native):
 def test_a_safe_point_within_the_bound_lets_the_loop_stop(tmp_path, native):
     done, _ = _child(tmp_path, native, "safe")
     assert done.returncode == 0 and "ended normally" in done.stdout, done.stderr[-2000:]
-    assert json.loads((tmp_path / "run.json").read_text())["status"] == "running"
+    # the early record (the loop replaces it with its own: the next test), not the fired one
+    info = json.loads((tmp_path / "run.json").read_text())
+    assert info["status"] == "interrupted" and "if this status stays" in info["summary"]["error"]
+    assert not done.stderr.strip(), done.stderr
+
+
+@pytest.mark.parametrize("native", [True, False], ids=["native", "python"])
+def test_the_signal_writes_an_early_record_that_the_loop_replaces(tmp_path, native):
+    """SIGTERM to mpirun: Open MPI forwards it and SIGKILLs the ranks 1 s later, before the
+    step ends. run.json says ``interrupted`` at once (not ``running``), with the last
+    checkpoint; the loop's own last write (after :func:`watchdog.final`) replaces it."""
+    done, _ = _child(tmp_path, native, "final")
+    assert done.returncode == 0 and "ended normally" in done.stdout, done.stderr[-2000:]
+    early = _early(done)
+    assert early["status"] == "interrupted" and early["summary"]["t"] == 0.5
+    error = early["summary"]["error"]
+    assert "stop request" in error and "step 7" in error and "if this status stays" in error
+    assert json.loads((tmp_path / "run.json").read_text()) == {
+        "status": "interrupted", "summary": {"t": 0.6}}
+    assert not done.stderr.strip(), done.stderr
+    assert not list(tmp_path.glob("*.tmp"))
+
+
+@pytest.mark.parametrize("native", [True, False], ids=["native", "python"])
+@pytest.mark.parametrize("mode, status", [("finished", "end_time"), ("other_rank", "failed")])
+def test_no_early_record_over_a_run_json_that_says_how_the_run_ended(tmp_path, native, mode,
+                                                                     status):
+    """A signal after the run wrote its last run.json (:func:`watchdog.final`), or after
+    another rank wrote ``failed`` and ended the job (Open MPI's abort sends SIGTERM to the
+    others), leaves it."""
+    done, _ = _child(tmp_path, native, mode)
+    assert done.returncode == 0 and "ended normally" in done.stdout, done.stderr[-2000:]
+    assert _early(done)["status"] == status
+    assert json.loads((tmp_path / "run.json").read_text())["status"] == status
