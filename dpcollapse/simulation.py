@@ -374,9 +374,7 @@ class Simulation:
         summary = run_summary(status, self.state, m, self.disc, self.iteration_counts, {
             **self.solver_counts(), **self.domain.counters(),
             "halved_steps": self.halvings, "rejected_steps": self.steps.rejected})
-        summary["model"] = self.cfg.model.name
-        if error:
-            summary["error"] = error
+        summary.update(model=self.cfg.model.name, **({"error": error} if error else {}))
         self.timings["total"] = time.perf_counter() - self.wall0
         self.info.update(status=status, summary=summary, timings=self.timings)
         watchdog.final()   # this write replaces the watchdog's early record, never the reverse

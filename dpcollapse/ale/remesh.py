@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dpcollapse import parallel
+from dpcollapse.geometry.boundary_loops import BoundaryLoops
 from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, boundary_edges, mesh_polygon
 from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, chain_loops, clip_right,
                                          offset_run, polygon_is_simple, remove_spikes, resample,
@@ -163,14 +164,19 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
             d_area, nverts)
 
 
-def boundary_contact(tagged: TaggedMesh, mesh_size: float) -> str | None:
+def boundary_contact(tagged: TaggedMesh, mesh_size: float,
+                     chained: BoundaryLoops | None = None) -> str | None:
     """The contacts of the free surface with the bed or the mass that a surgery would act on
     now (``geometry.surgery.surgery_needed``: "crossing", "self-contact", "bed contact"), or
-    None; the same on every rank."""
+    None; the same on every rank. ``chained`` (``geometry.boundary_loops``) reuses the
+    chaining of the boundary edges while the mesh only moves (the same loops)."""
     all_edges, all_tags = boundary_edges(tagged)
 
     def kinds():
-        loops = chain_loops(all_edges, all_tags)
+        if chained is None:
+            loops = chain_loops(all_edges, all_tags)
+        else:
+            loops = chained.loops(all_edges, all_tags, (tagged.mesh, tagged.facet_tags))
         return surgery_needed(loops[0], mesh_size, loops[1:])
 
     return parallel.on_root(tagged.mesh.comm, kinds)

@@ -8,7 +8,8 @@ threshold (a sharp boundary corner) lowers it to REMESH_DEGRADATION × the angle
 so that the same mesh is not rebuilt every REMESH_COOLDOWN steps. With surgery on
 (``numerics.remesh_surgery``), a contact of the free surface with the bed or the mass
 (``geometry.surgery``) also asks for a remesh (after the same cooldown), where the surgery
-is done.
+is done; the check of every step reuses the boundary's chaining while the mesh only moves
+(``geometry.boundary_loops``).
 
 Events (``loop.EventSource``): ``landings``, the free-surface nodes of the nose that came
 down on the bed in accepted moves; ``surgeries`` and
@@ -33,6 +34,7 @@ from dpcollapse.ale.motion import quality, retag_landed
 from dpcollapse.ale.remesh import boundary_contact
 from dpcollapse.domain.region_remesh import remesh_regions
 from dpcollapse.errors import MeshError
+from dpcollapse.geometry.boundary_loops import BoundaryLoops
 
 #: Energy guard: the kinetic energy may exceed the work of gravity by at most this fraction
 #: before the run is declared numerically unstable.
@@ -64,6 +66,8 @@ class MovingDomain:
                  conserve_area: bool = False, surgery: bool = False):
         self.remesh_min_angle = remesh_min_angle
         self.surgery = surgery
+        #: the chained boundary of the current mesh, for the contact check of every step
+        self._boundary_loops = BoundaryLoops()
         #: the surgeries done by remeshes (``geometry.surgery.Surgery``), not yet taken
         self.surgeries: list = []
         #: run.json's ``surgery_events``: one entry per surgery of this run segment
@@ -150,7 +154,7 @@ class MovingDomain:
         if q["min_angle"] < threshold and since >= REMESH_COOLDOWN:
             return f"min angle {q['min_angle']:.1f}°"
         if self.surgery and since >= REMESH_COOLDOWN and _one_region(disc.tagged):
-            contact = boundary_contact(disc.tagged, self.mesh_size)
+            contact = boundary_contact(disc.tagged, self.mesh_size, self._boundary_loops)
             if contact:
                 return f"boundary {contact}"
         return None
