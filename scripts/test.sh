@@ -2,7 +2,8 @@
 # Set up what is missing, then run the test suite: serial (spread over the cores by
 # pytest-xdist), then the MPI tests on 2 ranks. Both suites always run; one summary line
 # each at the end; the exit status is non-zero if either failed.
-# Extra arguments go to both pytest runs (e.g. -k config).
+# Extra arguments go to both pytest runs (e.g. -k config). Tests marked `science` (a study's
+# measurement, minutes long) are left out: `.venv/bin/python -m pytest -m science` runs them.
 #   DPCOLLAPSE_TEST_JOBS  serial workers (default: auto = one per core; 0 = no xdist)
 #   DPCOLLAPSE_MPIEXEC    MPI launcher (default: the pip path's .venv/bin/mpiexec where it
 #                         exists — the mpich wheel's —, else mpirun)
@@ -33,7 +34,7 @@ ok() { [ "$1" -eq 0 ] || [ "$1" -eq 5 ]; }
 
 echo "== serial tests"
 start=$SECONDS
-.venv/bin/python -m pytest -q "${xdist[@]}" "$@" 2>&1 | tee "$logs/serial"
+.venv/bin/python -m pytest -q "${xdist[@]}" -m "not science" "$@" 2>&1 | tee "$logs/serial"
 serial=${PIPESTATUS[0]}
 serial_time=$((SECONDS - start))
 

@@ -218,7 +218,7 @@ def test_the_mean_inertia_gives_the_front_its_momentum_without_the_push(tmp_path
     assert 1.01 * peak["energy"] < peak["mean"] < 1.2, peak
 
 
-@pytest.mark.slow
+@pytest.mark.science   # 2–5 min: four adaptive columns to rest (not in the test command)
 def test_the_column_front_no_longer_depends_on_the_step_with_the_mean_inertia(tmp_path):
     """Issue 50 (docs/benchmarks/2026-12-07-two-phase-columns-cause.md): the ladder's
     Drucker–Prager column a = 3 on the two-phase model (``ladder.two_phase_config``: the
