@@ -68,6 +68,7 @@ class MovingDomain:
         self.surgery = surgery
         #: the chained boundary of the current mesh, for the contact check of every step
         self._boundary_loops = BoundaryLoops()
+        self._regions_of = (None, True)   # (tagged mesh, one region?): its tags change with it
         #: the surgeries done by remeshes (``geometry.surgery.Surgery``), not yet taken
         self.surgeries: list = []
         #: run.json's ``surgery_events``: one entry per surgery of this run segment
@@ -108,6 +109,12 @@ class MovingDomain:
     def undo(self, disc, old_x) -> None:
         disc.mesh.geometry.x[:] = old_x
         self._attempt = 0
+
+    def _one_region(self, tagged) -> bool:
+        """``_one_region`` once per mesh (two collectives), not at every step."""
+        if self._regions_of[0] is not tagged:
+            self._regions_of = (tagged, _one_region(tagged))
+        return self._regions_of[1]
 
     def take_events(self) -> dict[str, float]:
         """Since the last call: nose nodes that landed on the bed (``landings``), boundary
@@ -153,7 +160,7 @@ class MovingDomain:
         threshold = min(self.remesh_min_angle, REMESH_DEGRADATION * after)
         if q["min_angle"] < threshold and since >= REMESH_COOLDOWN:
             return f"min angle {q['min_angle']:.1f}°"
-        if self.surgery and since >= REMESH_COOLDOWN and _one_region(disc.tagged):
+        if self.surgery and since >= REMESH_COOLDOWN and self._one_region(disc.tagged):
             contact = boundary_contact(disc.tagged, self.mesh_size, self._boundary_loops)
             if contact:
                 return f"boundary {contact}"
