@@ -328,10 +328,10 @@ def compare(case: str, config: Path | None, out: Path | None, quick: bool) -> in
     if not config.is_file():
         raise ConfigError(f"--config = {config}: file not found")
     _setup_logging(quiet=True)
-    run = _lazy("dpcollapse.studies.compare", f"compare_{case}")
+    run = _lazy("studies.compare", f"compare_{case}")
     echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
     runs = run(config, out, quick=quick, log=echo)
-    ratio = _lazy("dpcollapse.studies.compare", "matched_ratio")(runs)
+    ratio = _lazy("studies.compare", "matched_ratio")(runs)
     if ratio:
         echo(f"matched accuracy {ratio['accuracy']:.3e}: regularized ({ratio['regularized']}) "
              f"{ratio['regularized_wall']:.1f} s, augmented Lagrangian ({ratio['augmented_lagrangian']}) "
@@ -368,13 +368,13 @@ def bench(cases: str | None, quick: bool, out: Path, nprocs: int, growth: bool,
     if krylov:
         if cases:
             raise click.UsageError("--krylov runs its own grid: --cases does not apply")
-        run = _lazy("dpcollapse.studies.bench_krylov", "run_krylov_bench")
+        run = _lazy("studies.bench_krylov", "run_krylov_bench")
         run(out, quick=quick, nprocs=nprocs, configs=configs, result_json=result_json,
             echo=click.echo)
         return 0
-    parse = _lazy("dpcollapse.studies.bench", "parse_cases")
+    parse = _lazy("studies.bench", "parse_cases")
     parse(cases, quick)   # a bad --cases is refused before anything runs
-    run = _lazy("dpcollapse.studies.bench", "run_bench")
+    run = _lazy("studies.bench", "run_bench")
     run(out, cases=cases, quick=quick, nprocs=nprocs, growth=growth, configs=configs,
         result_json=result_json, echo=click.echo)
     return 0
@@ -418,7 +418,7 @@ def stability(scene: str, quick: bool, config: Path | None, out: Path | None, me
     out = out or Path(f"runs/stability_{scene}")
     if not config.is_file():
         raise ConfigError(f"--config = {config}: file not found")
-    module = "dpcollapse.studies.stability"
+    module = "studies.stability"
     plan = _lazy(module, "PLANS")[(scene, quick)]
     known = list(_lazy(module, "METHODS"))
     chosen = plan.methods if methods is None else [m.strip() for m in methods.split(",") if m.strip()]
@@ -468,7 +468,7 @@ def ladder(quick: bool, out: Path, work: Path, only: tuple[str, ...], redo: bool
     (docs/ladder.md)."""
     _setup_logging(quiet=True)
     echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
-    return _lazy("dpcollapse.studies.ladder", "run")(
+    return _lazy("studies.ladder", "run")(
         quick, out, work, list(only) or None, redo, plot_only, sh_case, echo=echo, shallow=shallow,
         two_phase=two_phase, cells_across=cells_across)
 
@@ -490,7 +490,7 @@ def wellposed(quick: bool, config: Path, out: Path, cells: str | None, steps: in
               diffusion_number: float | None) -> int:
     """Ill-posedness of mu(I) measured: growth of grid-scale noise on the Bagnold flow at
     slopes below, inside and above the well-posed window, at 2-3 mesh sizes; CSV + PNG."""
-    module = "dpcollapse.studies.wellposed"
+    module = "studies.wellposed"
     plan = _lazy(module, "QUICK" if quick else "FULL")
     if not config.is_file():
         raise ConfigError(f"--config = {config}: file not found")

@@ -229,7 +229,7 @@ def test_the_column_front_no_longer_depends_on_the_step_with_the_mean_inertia(tm
     moving mesh (0.330 m). With ``mean`` it moves by +0.4 % (0.2946 → 0.2959 m). (The two
     forms' fronts at Co 0.1 differ by 5 % at these coarse cells; at L0/16 by 3 %.)"""
     from dpcollapse.simulation import Simulation
-    from dpcollapse.studies import ladder
+    from studies import ladder
 
     case = next(c for c in ladder.full_plan() if c.name == "column_a3")
     cfg = case.load()

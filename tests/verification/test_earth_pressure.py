@@ -15,7 +15,7 @@ from dpcollapse.models.savage_hutter import (CoulombFriction, EarthPressure, Gri
                                              simulate)
 from dpcollapse.models.savage_hutter.earth_pressure import savage_hutter_coefficients
 from dpcollapse.models.savage_hutter.exact import mangeney_dam_break, parabolic_cap
-from dpcollapse.studies.savage_hutter import heap_run
+from studies.savage_hutter import heap_run
 
 PHI, DELTA, THETA = 30.0, 20.0, 35.0      # the caps' internal, bed and slope angles [deg]
 CAP_H, CAP_L = 0.1, 1.0                   # peak and half-length at t = 0 [m]

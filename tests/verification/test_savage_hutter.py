@@ -26,7 +26,7 @@ from dpcollapse.models.savage_hutter.exact import (
     mangeney_dam_break,
 )
 from dpcollapse.models.savage_hutter.scheme import Physics, interface_terms
-from dpcollapse.studies.savage_hutter import (
+from studies.savage_hutter import (
     fitted_rate,
     heap_run,
     kerswell_run,
@@ -39,7 +39,7 @@ G = 9.81
 
 
 def test_no_finite_element_imports():
-    code = ("import sys, dpcollapse.studies.savage_hutter\n"
+    code = ("import sys, studies.savage_hutter\n"
             "bad = [m for m in ('dolfinx', 'petsc4py', 'mpi4py', 'ufl', 'dpcollapse.config',"
             " 'dpcollapse.simulation') if m in sys.modules]\n"
             "assert not bad, bad")

@@ -10,7 +10,7 @@ with μ_eff the basal friction (Coulomb or μ(Ī), ``friction``) plus the option
 (``earth_pressure``). ``scheme`` holds the finite-volume step (HLL fluxes, friction that locks interfaces at
 rest, implicit Coulomb stopping), ``solver`` the time loop and outputs, ``exact`` the analytic
 solutions used for verification, ``validate`` the convergence study (``python -m
-dpcollapse.studies.savage_hutter``). See docs/savage_hutter.md.
+studies.savage_hutter``). See docs/savage_hutter.md.
 """
 
 from dpcollapse.models.savage_hutter.earth_pressure import EarthPressure

@@ -11,7 +11,8 @@ import json
 import sys
 from pathlib import Path
 
-from dpcollapse.studies import ladder as L
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))  # studies/ is not installed
+from studies import ladder as L  # noqa: E402
 
 rung, name, cell, work = sys.argv[1], sys.argv[2], float(sys.argv[3]), Path(sys.argv[4])
 case = next(c for c in L.shallow_plan() if c.name == name)

@@ -122,7 +122,7 @@ PARTS = ("assembly", "factorization", "solve", "picard_other", "mesh_motion", "r
 
 def default_configs_dir() -> Path:
     """The repository's configs/ (next to the package), else ./configs."""
-    here = Path(__file__).resolve().parents[2] / "configs"
+    here = Path(__file__).resolve().parents[1] / "configs"
     return here if here.is_dir() else Path("configs")
 
 

@@ -1,10 +1,10 @@
-"""The shallow-limit plan and its ε-threshold table (dpcollapse.studies.ladder): the family
+"""The shallow-limit plan and its ε-threshold table (studies.ladder): the family
 (five ε from 0.5 to 0.05, five 2D cells across the thickness, the same material on every bed),
 and the rule "the largest ε below which every measured ε is within the tolerance"."""
 
 import math
 
-from dpcollapse.studies import ladder
+from studies import ladder
 
 
 def test_shallow_plan_family():

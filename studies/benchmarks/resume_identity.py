@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from mpi4py import MPI
 
-sys.path.insert(0, os.environ.get("CODE", str(Path(__file__).resolve().parent.parent)))
+sys.path.insert(0, os.environ.get("CODE", str(Path(__file__).resolve().parents[2])))
 from tests.helpers import simulation, RIGID_BDF1
 from dpcollapse.io.diagnostics import read_diagnostics
 

@@ -3,7 +3,7 @@
     python docs/benchmarks/two_phase/columns_cause.py CASE LABEL [--rung tp|2d] [--cells N]
                                                       [--work DIR] [--out FILE] [KEY=VALUE ...]
 
-CASE is a ladder case (``dpcollapse.studies.ladder.full_plan``, e.g. column_a3); the run is
+CASE is a ladder case (``studies.ladder.full_plan``, e.g. column_a3); the run is
 the ladder's own rung (``ladder.two_phase_config`` for ``tp`` with L0/N cells, N = 16 by
 default; the case's 2D config for ``2d``), to the ladder's end time, with the ``KEY=VALUE``
 overrides applied last (the knob). The reference is the 2D rung stored in docs/figures
@@ -27,9 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from dpcollapse.config import with_overrides
-from dpcollapse.io.diagnostics import read_diagnostics
-from dpcollapse.studies import ladder
+sys.path.insert(0, str(Path(__file__).resolve().parents[3]))  # studies/ is not installed
+from dpcollapse.config import with_overrides  # noqa: E402
+from dpcollapse.io.diagnostics import read_diagnostics  # noqa: E402
+from studies import ladder  # noqa: E402
 
 THRESHOLDS = (1e-3, 2e-3, 5e-3, 1e-2, 2e-2)
 FIGURES = ladder.ROOT / "docs" / "figures"

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from dpcollapse import compat
-from dpcollapse.studies.bench import (
+from studies.bench import (
     Instrument,
     _csv_value,
     _fmt,

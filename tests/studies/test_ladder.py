@@ -1,4 +1,4 @@
-"""The model ladder (dpcollapse.studies.ladder) in its --quick form: two tiny 2D column runs
+"""The model ladder (studies.ladder) in its --quick form: two tiny 2D column runs
 (3 cm cells: Coulomb to 0.1 s, μ(I) to rest) and their Savage–Hutter twins; the table's
 structure, mass conservation of both rungs, the cost ratio, the early front, the μ(I) runout
 ordering, and that a second call reuses the CSV."""
@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from dpcollapse.cli import main as cli_main
-from dpcollapse.studies import ladder
+from studies import ladder
 
 
 def test_ladder_quick(tmp_path):

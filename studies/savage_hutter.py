@@ -1,6 +1,6 @@
 """Verification of the Savage–Hutter solver: convergence tables and plots.
 
-    python -m dpcollapse.studies.savage_hutter [--quick] [--out docs/figures]
+    python -m studies.savage_hutter [--quick] [--out docs/figures]
 
 * Mangeney et al. (2000) dam break: θ = 22°, δ = 21°, h0 = 1 m, dam at x = 0, domain
   [−20, 40] m with open (zero-gradient) ends — the sliding reservoir h = h0, ū = m t is then
@@ -228,7 +228,7 @@ def _fmt(v, spec):
 
 def main(argv=None) -> int:
     """Print the tables, write the plots; exit code 0."""
-    parser = argparse.ArgumentParser(prog="python -m dpcollapse.studies.savage_hutter")
+    parser = argparse.ArgumentParser(prog="python -m studies.savage_hutter")
     parser.add_argument("--quick", action="store_true", help="coarser meshes, fewer repeats")
     parser.add_argument("--out", default="runs/savage_hutter", help="directory of the PNG plots")
     args = parser.parse_args(argv)

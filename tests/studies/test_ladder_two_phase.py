@@ -13,7 +13,7 @@ from dpcollapse.models.two_phase.fraction import owned_triangles
 from dpcollapse.models.two_phase.overlap import union_fraction
 from dpcollapse.scenes.base import BoundaryKind
 from dpcollapse.scenes.registry import scene
-from dpcollapse.studies import ladder
+from studies import ladder
 from tests.helpers import ROOT
 
 

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-CONFIG = Path(__file__).resolve().parents[1] / "configs" / "column_eulerian_a6.26.yaml"
+CONFIG = Path(__file__).resolve().parents[2] / "configs" / "column_eulerian_a6.26.yaml"
 EVENTS = ("MatLUFactorSym", "MatLUFactorNum", "MatSolve", "KSPSolve", "PCSetUp")
 #: MUMPS option sets compared by ``lu`` (on top of the solver's ICNTL(14) = 200, ICNTL(24) = 0)
 LU_OPTIONS = {

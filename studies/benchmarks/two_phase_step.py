@@ -27,7 +27,7 @@ import numpy as np
 
 from dpcollapse.io.diagnostics import read_diagnostics
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 RUNS = {
     "dt_0.25ms": ["time.dt=2.5e-4"],
     "dt_1ms": ["time.dt=1e-3"],

@@ -55,7 +55,7 @@ from dpcollapse.models.savage_hutter.setup import setup_from_config
 from dpcollapse.models.savage_hutter.solver import front_position
 
 #: Repository root (the configs are named relative to it).
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 #: Thickness that defines the front of both rungs [m].
 FRONT_THRESHOLD = 1e-3
 #: Savage–Hutter cell size [m] (full run, --quick).
@@ -1202,8 +1202,8 @@ def run(quick=False, out="runs/ladder", work="runs/ladder", only=None, redo=Fals
 
 
 def main(argv=None) -> int:
-    """``python -m dpcollapse.studies.ladder``: the same as ``dpcollapse ladder``."""
-    parser = argparse.ArgumentParser(prog="python -m dpcollapse.studies.ladder")
+    """``python -m studies.ladder``: the same as ``dpcollapse ladder``."""
+    parser = argparse.ArgumentParser(prog="python -m studies.ladder")
     parser.add_argument("--quick", action="store_true",
                         help="two tiny cases (3 cm 2D cells; SH Δx 4 mm): the test")
     parser.add_argument("--out", default="runs/ladder", help="folder of ladder.csv, ladder_series.csv, ladder.png")

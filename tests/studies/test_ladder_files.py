@@ -12,7 +12,7 @@ import shutil
 import pytest
 
 from dpcollapse.cli import main
-from dpcollapse.studies import ladder
+from studies import ladder
 from tests.helpers import ROOT
 
 FIGURES = ROOT / "docs" / "figures"

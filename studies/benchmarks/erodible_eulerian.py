@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 PROFILE_EVERY = 0.05
 #: the moving-mesh (ALE) deposits at 1 cm, (front, top) [m]: on the layer with seed 000's
 #: tension (docs/benchmarks/2026-12-02-erodible-tension-mesh.md) and on the rigid bed

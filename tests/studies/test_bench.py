@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from dpcollapse.studies.bench import (COLUMNS, PARTS, Instrument, default_configs_dir,
+from studies.bench import (COLUMNS, PARTS, Instrument, default_configs_dir,
                               fitted_exponent, instrumented_simulation, load_case_config)
 from dpcollapse.cli import main
 
@@ -147,8 +147,8 @@ def test_krylov_grid_quick(tmp_path, capsys):
     """bench --krylov --quick: first steps, one row per (ε, solver) on the 4 cm mesh, Krylov
     iterations for the iterative rows, the same Picard solves and front as MUMPS, the
     LU/iterative ratio; then one solve per (ε, solver) of the developed state."""
-    from dpcollapse.studies.bench_krylov import COLUMNS as KRYLOV_COLUMNS
-    from dpcollapse.studies.bench_krylov import QUICK_DEVELOPED, QUICK_PLAN
+    from studies.bench_krylov import COLUMNS as KRYLOV_COLUMNS
+    from studies.bench_krylov import QUICK_DEVELOPED, QUICK_PLAN
 
     assert main(["bench", "--krylov", "--quick", "--np", "0", "--out", str(tmp_path)]) == 0
     assert "LU/it" in capsys.readouterr().out

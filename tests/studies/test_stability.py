@@ -74,7 +74,7 @@ def test_front_at_compare_time_is_interpolated(tmp_path):
     """The rigid compare value is the front at the compare time, linear between the steps
     that bracket it (not the front of the first step past it), from the running map and from
     a run's diagnostics.csv alike."""
-    from dpcollapse.studies.stability import fronts_from_diagnostics, interpolate
+    from studies.stability import fronts_from_diagnostics, interpolate
 
     assert interpolate((0.096, 0.30), (0.104, 0.31), 0.1) == pytest.approx(0.305)
     assert interpolate((0.1, 0.30), (0.1, 0.31), 0.1) == 0.31

@@ -26,7 +26,7 @@ def test_growth_hand_value():
 
 
 def test_growth_rate_fit():
-    from dpcollapse.studies.wellposed import growth_rate
+    from studies.wellposed import growth_rate
 
     t = np.linspace(0.0, 1.0, 11)
     a = np.r_[10.0, 5.0, np.exp(3.0 * t[2:])]
@@ -44,13 +44,13 @@ def test_growth_rate_fit():
     ([float("nan"), 2.0], False, "inconclusive"),
 ])
 def test_classify(rates, failed, klass):
-    from dpcollapse.studies.wellposed import classify
+    from studies.wellposed import classify
 
     assert classify(rates, failed) == klass
 
 
 def test_periodic_noise_same_on_images():
-    from dpcollapse.studies.wellposed import periodic_noise
+    from studies.wellposed import periodic_noise
 
     pts = np.array([[0.0, 0.3], [0.1, 0.3], [0.05, 0.3], [0.1 + 1e-12, 0.3]])
     n = periodic_noise(pts, 0.1, seed=16)
