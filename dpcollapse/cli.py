@@ -1,4 +1,8 @@
-"""The ``dpcollapse`` command line: check, run, mesh, plot.
+"""The ``dpcollapse`` command line: check, run, mesh, plot, validate, sweep, plot-sweep.
+
+The studies (compare, bench, stability, wellposed, ladder) are not part of the installed
+solver: ``python -m studies COMMAND`` from a source checkout (studies/cli.py) builds on
+:class:`CommandGroup` and :func:`entry`; here their names only say where they went.
 
 Exit status: 0 done, 2 bad input, 3 no convergence, 4 mesh failure, 130 interrupted
 (see :mod:`dpcollapse.errors`). Errors are one line on stderr, printed by rank 0 only.
@@ -13,7 +17,6 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import logging  # noqa: E402
-import math  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -94,10 +97,22 @@ def _lazy(module: str, name: str) -> Any:
 _error_log_dir: Path | None = None
 
 
+#: The commands that moved to ``python -m studies`` (a source checkout's studies/ tree).
+STUDY_COMMANDS = ("compare", "bench", "stability", "wellposed", "ladder")
+
+
 class _Group(click.Group):
     """Turns Ctrl-C inside a command into :class:`Interrupted` (exit 130, one line), an I/O
     failure into :class:`OutputError` (exit 5) and any other exception — a bug — into
     :class:`InternalError` (exit 1) whose traceback goes to ``error.log``."""
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        command = super().get_command(ctx, cmd_name)
+        if command is None and self is cli and cmd_name in STUDY_COMMANDS:
+            raise ConfigError(f"{cmd_name} is a study, not a solver command: from a source "
+                              f"checkout's root run python -m studies {cmd_name} "
+                              "(docs/architecture.md)")
+        return command
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
@@ -313,203 +328,6 @@ _validation("bagnold", "Steady mu(I) flow down a slope (periodic layer) vs the B
             "mesh sweep.", "Two coarse meshes, looser steadiness (about 10 s).")
 
 
-@cli.command()
-@click.argument("case", type=click.Choice(["plug", "collapse"]))
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Base config (default: configs/plug.yaml or configs/rigid.yaml).")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Output directory (default: runs/compare_CASE).")
-@click.option("--quick", is_flag=True, help="Two short runs, one per method (checks the harness).")
-def compare(case: str, config: Path | None, out: Path | None, quick: bool) -> int:
-    """Regularization vs augmented Lagrangian: accuracy against wall time (CSV + PNG) and the
-    wall-time ratio at matched accuracy, all measured in this run."""
-    config = config or Path("configs/plug.yaml" if case == "plug" else "configs/rigid.yaml")
-    out = out or Path(f"runs/compare_{case}")
-    if not config.is_file():
-        raise ConfigError(f"--config = {config}: file not found")
-    _setup_logging(quiet=True)
-    run = _lazy("studies.compare", f"compare_{case}")
-    echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
-    runs = run(config, out, quick=quick, log=echo)
-    ratio = _lazy("studies.compare", "matched_ratio")(runs)
-    if ratio:
-        echo(f"matched accuracy {ratio['accuracy']:.3e}: regularized ({ratio['regularized']}) "
-             f"{ratio['regularized_wall']:.1f} s, augmented Lagrangian ({ratio['augmented_lagrangian']}) "
-             f"{ratio['augmented_lagrangian_wall']:.1f} s: ratio regularized/AL "
-             f"{ratio['ratio_regularized_over_al']:.2f}")
-    echo(f"wrote {out / f'compare_{case}.csv'} and {out / f'compare_{case}.png'}")
-    return 0
-
-
-@cli.command()
-@click.option("--cases", default=None, metavar="NAME,...",
-              help="Cases to run, comma-separated: rigid_4cm, rigid_2cm, rigid_1cm, plug, bagnold "
-                   "(default: rigid_2cm,rigid_1cm,plug,bagnold; with --quick: rigid_4cm,plug).")
-@click.option("--quick", is_flag=True,
-              help="Tiny runs (short end times, growth on 2 coarse meshes) to check the harness.")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path),
-              default=Path("runs/bench"), show_default=True, help="Output directory.")
-@click.option("--np", "nprocs", type=click.IntRange(min=0), default=2, show_default=True,
-              help="Rerun the cases under mpirun -n N and report the speed-up (0: no rerun).")
-@click.option("--growth/--no-growth", default=True, show_default=True,
-              help="Cost growth: time per step against unknowns on four mesh sizes.")
-@click.option("--configs", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Folder of the case configs (default: the repository's configs/).")
-@click.option("--krylov", is_flag=True,
-              help="Instead of the suite: iterative (FGMRES + AMG) against MUMPS flow solves on "
-                   "the rigid case, Krylov iterations and time per solve against mesh size and "
-                   "epsilon (krylov.csv).")
-@click.option("--result-json", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              hidden=True)
-def bench(cases: str | None, quick: bool, out: Path, nprocs: int, growth: bool,
-          configs: Path | None, krylov: bool, result_json: Path | None) -> int:
-    """Benchmark suite: wall time, iterations, time split, memory, MPI speed-up, cost growth."""
-    _setup_logging(quiet=True)
-    if krylov:
-        if cases:
-            raise click.UsageError("--krylov runs its own grid: --cases does not apply")
-        run = _lazy("studies.bench_krylov", "run_krylov_bench")
-        run(out, quick=quick, nprocs=nprocs, configs=configs, result_json=result_json,
-            echo=click.echo)
-        return 0
-    parse = _lazy("studies.bench", "parse_cases")
-    parse(cases, quick)   # a bad --cases is refused before anything runs
-    run = _lazy("studies.bench", "run_bench")
-    run(out, cases=cases, quick=quick, nprocs=nprocs, growth=growth, configs=configs,
-        result_json=result_json, echo=click.echo)
-    return 0
-
-
-def _number_list(option: str, text: str | None) -> list[float] | None:
-    """--epsilons 1e-2,1e-6 → [0.01, 1e-06]; a bad entry is a one-line input error."""
-    if text is None:
-        return None
-    try:
-        values = [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise ConfigError(f"{option} = {text}: must be comma-separated positive numbers") from None
-    if not values or not all(v > 0 and math.isfinite(v) for v in values):
-        raise ConfigError(f"{option} = {text}: must be comma-separated positive numbers")
-    return values
-
-
-@cli.command()
-@click.argument("scene", type=click.Choice(["plug", "rigid"]))
-@click.option("--quick", is_flag=True, help="A few short coarse cells (checks the harness, < 1 min).")
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Base config (default: configs/plug.yaml or configs/rigid.yaml).")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Output directory (default: runs/stability_SCENE).")
-@click.option("--methods", default=None, metavar="M,...",
-              help="Subset of picard, picard+anderson, newton, augmented_lagrangian.")
-@click.option("--epsilons", default=None, metavar="E,...", help="epsilon values [1/s] (replace the plan's).")
-@click.option("--dts", default=None, metavar="DT,...", help="time steps [s] (replace the plan's).")
-@click.option("--mesh-sizes", default=None, metavar="DX,...", help="mesh sizes [m] (replace the plan's).")
-@click.option("--end-time", type=float, default=None, help="End time of every run [s].")
-@click.option("--cap", type=float, default=None, help="CPU seconds per run before it counts as too slow.")
-@click.option("--append", is_flag=True,
-              help="Keep the rows of the stability_SCENE.csv already in --out (extend a map run by run).")
-def stability(scene: str, quick: bool, config: Path | None, out: Path | None, methods: str | None,
-              epsilons: str | None, dts: str | None, mesh_sizes: str | None, end_time: float | None,
-              cap: float | None, append: bool) -> int:
-    """Map where each method works: method x epsilon x dt x dx, every run classified
-    (accurate / wrong / failed with exit code / too slow); CSV + PNG."""
-    config = config or Path("configs/plug.yaml" if scene == "plug" else "configs/rigid.yaml")
-    out = out or Path(f"runs/stability_{scene}")
-    if not config.is_file():
-        raise ConfigError(f"--config = {config}: file not found")
-    module = "studies.stability"
-    plan = _lazy(module, "PLANS")[(scene, quick)]
-    known = list(_lazy(module, "METHODS"))
-    chosen = plan.methods if methods is None else [m.strip() for m in methods.split(",") if m.strip()]
-    bad = [m for m in chosen if m not in known]
-    if bad or not chosen:
-        raise ConfigError(f"--methods = {methods}: must be a subset of {', '.join(known)}")
-    for name, value in (("--end-time", end_time), ("--cap", cap)):
-        if value is not None and not (value > 0 and math.isfinite(value)):
-            raise ConfigError(f"{name} = {value}: must be > 0")
-    import dataclasses
-
-    plan = dataclasses.replace(
-        plan, methods=chosen,
-        epsilons=_number_list("--epsilons", epsilons) or plan.epsilons,
-        dts=_number_list("--dts", dts) or plan.dts,
-        mesh_sizes=_number_list("--mesh-sizes", mesh_sizes) or plan.mesh_sizes,
-        end_time=end_time or plan.end_time, cap=cap or plan.cap)
-    plan.times = [t for t in plan.times if t <= plan.end_time + 1e-9]   # empty: the end time
-    _setup_logging(quiet=True)
-    echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
-    _lazy(module, "stability_map")(scene, config, out, quick=quick, plan=plan, log=echo, append=append)
-    echo(f"wrote {out / f'stability_{scene}.csv'} and {out / f'stability_{scene}.png'}")
-    return 0
-
-
-@cli.command()
-@click.option("--quick", is_flag=True, help="Two tiny cases (3 cm 2D cells; SH dx 4 mm): the test.")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("runs/ladder"),
-              show_default=True, help="Folder of ladder.csv, ladder_series.csv, ladder.png.")
-@click.option("--work", type=click.Path(file_okay=False, path_type=Path), default=Path("runs/ladder"),
-              show_default=True, help="Folder of the 2D run directories.")
-@click.option("--only", multiple=True, metavar="CASE", help="Run only this case (repeatable).")
-@click.option("--redo", is_flag=True, help="Run cases already in the CSV again.")
-@click.option("--plot-only", is_flag=True, help="Only redraw the chart and table from the CSVs.")
-@click.option("--sh-resolution", "sh_case", default=None, metavar="CASE",
-              help="Only the Savage-Hutter side of CASE at dx = 4, 2, 1, 0.5 mm.")
-@click.option("--shallow", is_flag=True,
-              help="The shallow limit: the aspect-ratio family (ladder_shallow.csv/.png).")
-@click.option("--two-phase", "two_phase", is_flag=True,
-              help="Add the two-phase rung to the cases already in the CSV (ladder_two_phase.png).")
-@click.option("--cells-across", "cells_across", type=click.IntRange(2, 256), default=None,
-              metavar="N", help="The two-phase rung's cells across L0 (default 16).")
-def ladder(quick: bool, out: Path, work: Path, only: tuple[str, ...], redo: bool, plot_only: bool,
-           sh_case: str | None, shallow: bool, two_phase: bool, cells_across: int | None) -> int:
-    """The model ladder: each scene with the 2D model and with Savage-Hutter (and with
-    --two-phase the two-phase model), runout, deposit height and cost side by side
-    (docs/ladder.md)."""
-    _setup_logging(quiet=True)
-    echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
-    return _lazy("studies.ladder", "run")(
-        quick, out, work, list(only) or None, redo, plot_only, sh_case, echo=echo, shallow=shallow,
-        two_phase=two_phase, cells_across=cells_across)
-
-
-@cli.command()
-@click.option("--quick", is_flag=True,
-              help="Two cases on two coarse meshes (checks the harness, < 1 min).")
-@click.option("--config", "config", type=click.Path(dir_okay=False, path_type=Path),
-              default=Path("configs/bagnold.yaml"), show_default=True,
-              help="A mu_i layer config (its law, depth, density; slope and mesh are the plan's).")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path),
-              default=Path("runs/wellposed"), show_default=True, help="Output directory.")
-@click.option("--cells", default=None, metavar="N,...",
-              help="Cells across the layer, coarse to fine.")
-@click.option("--steps", type=int, default=None, help="Time steps per run (> the fit window).")
-@click.option("--diffusion-number", type=float, default=None,
-              help="beta in dt = beta dx^2/nu_mid (the time step of each mesh).")
-def wellposed(quick: bool, config: Path, out: Path, cells: str | None, steps: int | None,
-              diffusion_number: float | None) -> int:
-    """Ill-posedness of mu(I) measured: growth of grid-scale noise on the Bagnold flow at
-    slopes below, inside and above the well-posed window, at 2-3 mesh sizes; CSV + PNG."""
-    module = "studies.wellposed"
-    plan = _lazy(module, "QUICK" if quick else "FULL")
-    if not config.is_file():
-        raise ConfigError(f"--config = {config}: file not found")
-    n = _number_list("--cells", cells)
-    if n is not None and not all(float(c).is_integer() and c >= 2 for c in n):
-        raise ConfigError(f"--cells = {cells}: must be comma-separated integers >= 2")
-    if steps is not None and not steps > plan.fit_steps:
-        raise ConfigError(f"--steps = {steps}: must be > {plan.fit_steps} (the fit window)")
-    if diffusion_number is not None and not (0 < diffusion_number < math.inf):
-        raise ConfigError(f"--diffusion-number = {diffusion_number}: must be > 0")
-    plan = _lazy(module, "plan_with")(plan, cells=n and [int(c) for c in n], n_steps=steps,
-                                      diffusion_number=diffusion_number)
-    _setup_logging(quiet=True)
-    echo = lambda msg: _rank() == 0 and click.echo(msg)  # noqa: E731
-    _lazy(module, "wellposedness_map")(config, out, plan, log=echo)
-    echo(f"wrote {out / 'stability_mui.csv'} and {out / 'stability_mui.png'}")
-    return 0
-
-
 from dpcollapse.sweep.commands import plot_sweep, sweep  # no DOLFINx imported
 
 cli.add_command(sweep)
@@ -540,12 +358,14 @@ def _fail(message: str, exit_code: int, peer: bool = False) -> int:
     return exit_code
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Run the command line on ``argv`` (default: sys.argv[1:]) and return the exit status."""
+def main(argv: list[str] | None = None, group: click.Group | None = None,
+         prog_name: str = "dpcollapse") -> int:
+    """Run the command line ``group`` (default: the solver's, :data:`cli`; the studies pass
+    theirs) on ``argv`` (default: sys.argv[1:]) and return the exit status."""
     _setup_logging()
     try:
         parallel.start()   # the failure protocol's communicator (every rank, same point)
-        rv = cli.main(args=argv, prog_name="dpcollapse", standalone_mode=False)
+        rv = (group or cli).main(args=argv, prog_name=prog_name, standalone_mode=False)
     except DpcollapseError as exc:
         return _fail(str(exc) or exc.__class__.__name__, exc.exit_code,
                      peer=isinstance(exc, PeerFailed))
@@ -559,13 +379,14 @@ def main(argv: list[str] | None = None) -> int:
     return rv if isinstance(rv, int) else 0
 
 
-def entry() -> None:
-    """Console script ``dpcollapse``: SIGTERM is an interrupt from the start (exit 130 with
-    one line, also while the run is being set up), as Ctrl-C is."""
+def entry(group: click.Group | None = None, prog_name: str = "dpcollapse") -> None:
+    """Console script ``dpcollapse`` (and ``python -m studies`` with its own ``group``):
+    SIGTERM is an interrupt from the start (exit 130 with one line, also while the run is
+    being set up), as Ctrl-C is."""
     signals.install()
     watchdog.install()   # idle until the run command arms it
     install_excepthook()
-    code = main()
+    code = main(group=group, prog_name=prog_name)
     xdmf = sys.modules.get("dpcollapse.io.xdmf")
     if code and xdmf is not None and xdmf.hdf5_write_failed:
         _exit_without_finalizers(code)
@@ -607,7 +428,12 @@ def _leave_out_of_step(code: int) -> None:
     os._exit(code)
 
 
-__all__ = ["cli", "entry", "main", "summary"]
+#: What a client's command line (``python -m studies``) builds on: the group class that maps
+#: exceptions to exit statuses and the rank that prints (0 outside MPI).
+CommandGroup = _Group
+rank = _rank
+
+__all__ = ["CommandGroup", "cli", "entry", "main", "rank", "summary"]
 
 if __name__ == "__main__":
     entry()

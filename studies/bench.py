@@ -1,4 +1,4 @@
-"""Benchmark suite: ``dpcollapse bench``.
+"""Benchmark suite: ``python -m studies bench``.
 
 Fixed cases (rigid collapse at two mesh sizes, plug flow, Bagnold), each run through the
 ordinary :class:`~dpcollapse.simulation.Simulation` with the solver left untouched. For each
@@ -358,9 +358,11 @@ _LAUNCHER_PREFIXES = ("OMPI_COMM_WORLD", "OMPI_UNIVERSE", "OMPI_FILE_LOCATION", 
 
 def _mpi_env(nprocs: int) -> dict:
     """Our environment without a launcher's job variables (if we were started by one),
-    one thread per rank, and (as root) Open MPI's permission to run."""
+    one thread per rank, the checkout on the path, and (as root) Open MPI's permission to run."""
     env = {k: v for k, v in os.environ.items() if not k.startswith(_LAUNCHER_PREFIXES)}
     env["OPENBLAS_NUM_THREADS"] = env["OMP_NUM_THREADS"] = "1"
+    checkout = str(Path(__file__).resolve().parents[1])   # studies/ is not installed
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (checkout, env.get("PYTHONPATH")) if p)
     if hasattr(os, "geteuid") and os.geteuid() == 0:
         env.setdefault("OMPI_ALLOW_RUN_AS_ROOT", "1")
         env.setdefault("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
@@ -372,14 +374,14 @@ def _mpi_env(nprocs: int) -> dict:
 
 def rerun_under_mpi(nprocs: int, bench_args: Sequence[str], what: str,
                     echo: Callable[[str], None]) -> list[dict]:
-    """Run ``dpcollapse bench <bench_args> --np 0 --result-json …`` under
+    """Run ``python -m studies bench <bench_args> --np 0 --result-json …`` under
     ``mpirun -n nprocs`` and return the rows it wrote; a failed rerun is an error."""
     launcher = shutil.which("mpirun") or shutil.which("mpiexec")
     if launcher is None:
         raise DpcollapseError("--np: neither mpirun nor mpiexec is on PATH")
     with tempfile.TemporaryDirectory(prefix="dpcollapse-bench-") as tmp:
         result = Path(tmp) / "result.json"
-        cmd = [launcher, "-n", str(nprocs), sys.executable, "-m", "dpcollapse.cli", "bench",
+        cmd = [launcher, "-n", str(nprocs), sys.executable, "-m", "studies", "bench",
                *bench_args, "--np", "0", "--result-json", str(result)]
         echo(f"rerunning {what} under mpirun -n {nprocs}")
         proc = subprocess.run(cmd, env=_mpi_env(nprocs), check=False)

@@ -1,4 +1,4 @@
-"""Iterative against direct flow solves: ``dpcollapse bench --krylov``.
+"""Iterative against direct flow solves: ``python -m studies bench --krylov``.
 
 The rigid collapse (``configs/rigid.yaml``) over its first steps (end time 0.02 s: the
 pressure builds up from zero, then the mass starts to flow), on a grid of mesh sizes and

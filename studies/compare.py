@@ -1,11 +1,11 @@
 """Regularization against augmented Lagrangian: accuracy against wall time, same machine, same run.
 
-``dpcollapse compare plug``: both methods over their accuracy knobs (ε and the fixed-point
+``python -m studies compare plug``: both methods over their accuracy knobs (ε and the fixed-point
 tolerance for regularization; r and the tolerance for the augmented Lagrangian; the mesh
 size for both) on the plug-flow case; accuracy = RMS over t = 0.2, 0.4, 0.6, 0.8 s of the
 relative L² error of u_x against the 1D non-smooth reference (``reference.plug1d``).
 
-``dpcollapse compare collapse``: the rigid-bed collapse; accuracy against the finest
+``python -m studies compare collapse``: the rigid-bed collapse; accuracy against the finest
 augmented Lagrangian run of the plan (run first): the largest difference of the deposit's
 free surface h(x) [m], of the front position history x_f(t) [m] and of the flowing area
 fraction (|u| > 1 mm/s, the static/flowing interface) at t = 0.1, 0.2, 0.4 s.

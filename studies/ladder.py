@@ -1,6 +1,6 @@
 """The model ladder, measured (issue 15): the 2D solver and the depth-averaged model on one scene.
 
-    dpcollapse ladder [--quick] [--out docs/figures] [--work runs/ladder]
+    python -m studies ladder [--quick] [--out docs/figures] [--work runs/ladder]
                                            [--only CASE]... [--redo] [--plot-only]
 
 For each case (a config of ``configs/`` plus ``--set`` overrides) both rungs run on the same
@@ -84,7 +84,7 @@ COLUMNS = [
     "k_act", "k_pass", "status_sh_k", "cpu_sh_k", "runout_sh_k", "height_sh_k", "runout_diff_k",
     "height_diff_k", "k_rankine", "status_sh_ka", "runout_sh_ka", "height_sh_ka",
     "runout_diff_ka", "height_diff_ka",
-    # the two-phase rung (``dpcollapse ladder --two-phase``): the same scene in a fixed box
+    # the two-phase rung (``python -m studies ladder --two-phase``): the same scene in a fixed box
     "status_tp", "t_end_tp", "steps_tp", "cell_tp", "cpu_tp_s", "wall_tp_s", "front_stop_tp",
     "runout_tp", "height_tp", "runout_diff_tp", "height_diff_tp", "max_speed_tp", "ritter_speed",
     "runout_tp_profile",
@@ -1202,7 +1202,7 @@ def run(quick=False, out="runs/ladder", work="runs/ladder", only=None, redo=Fals
 
 
 def main(argv=None) -> int:
-    """``python -m studies.ladder``: the same as ``dpcollapse ladder``."""
+    """``python -m studies.ladder``: the same as ``python -m studies ladder``."""
     parser = argparse.ArgumentParser(prog="python -m studies.ladder")
     parser.add_argument("--quick", action="store_true",
                         help="two tiny cases (3 cm 2D cells; SH Δx 4 mm): the test")

@@ -1,4 +1,4 @@
-"""Where each method works: ``dpcollapse stability SCENE [--quick]``.
+"""Where each method works: ``python -m studies stability SCENE [--quick]``.
 
 Sweeps method (Picard, Picard + Anderson, Newton, augmented Lagrangian) × ε × Δt × ΔX on
 a scene with a reference and classifies every run:

@@ -54,7 +54,7 @@ from dpcollapse.errors import ConfigError, DpcollapseError
 from dpcollapse.reference.bagnold import (bagnold_inertial_number, bagnold_shear_rate,
                                           bagnold_surface_velocity, bagnold_velocity)
 from dpcollapse.rheology.wellposedness import criterion, high_wavenumber_growth, well_posed_window
-from dpcollapse.models.stokes.discretization import rheology
+from dpcollapse.rheology.choice import law_from_material
 from dpcollapse.simulation import Simulation
 
 __all__ = ["WellposedCase", "WellposedPlan", "FULL", "QUICK", "wellposedness_map", "classify",
@@ -194,7 +194,7 @@ def time_step(base: Config, case: WellposedCase, cells: int, plan: WellposedPlan
     surface speed; the advective time is the shorter one only in fast flow)."""
     if plan.diffusion_number is None:
         return plan.dt
-    law, m, h = rheology(base), base.material, base.geometry.height
+    law, m, h = law_from_material(base.material), base.material, base.geometry.height
     theta = math.radians(case.bed_angle)
     nu = kinematic_viscosity(law, theta, h, m.density, m.gravity)
     us = bagnold_surface_velocity(law, theta, h, m.density, m.gravity)
@@ -270,7 +270,7 @@ def run_cell(base: Config, case: WellposedCase, cells: int, eps: float, plan: We
              out_dir: Path) -> GrowthRun:
     """Reference and perturbed runs of one (θ, ΔX, ε); σ from their difference."""
     cfg = _cfg(base, case, cells, eps, plan)
-    law = rheology(cfg)
+    law = law_from_material(cfg.material)
     theta = math.radians(case.bed_angle)
     lo, hi = well_posed_window(law)
     try:
@@ -311,7 +311,7 @@ def run_cell(base: Config, case: WellposedCase, cells: int, eps: float, plan: We
 def wellposedness_map(config: Path, out_dir: Path, plan: WellposedPlan, log=print) -> list:
     """Every (θ, ε, ΔX) of ``plan``; writes ``stability_mui.csv`` and ``stability_mui.png``."""
     base = _base(Path(config))
-    law = rheology(base)
+    law = law_from_material(base.material)
     lo, hi = well_posed_window(law)
     log(f"μ(I) law μ_s = {law.mu_s:.4g}, μ_2 = {law.mu_2:.4g}, I0 = {law.I0:g}: well posed for "
         f"{lo:.4g} < I < {hi:.4g}; Δt = {plan.diffusion_number} min(ΔX²/ν_mid, ΔX/u_s), "

@@ -79,8 +79,18 @@ def dpcollapse_cmd() -> list[str]:
     return [str(exe)] if exe.exists() else [sys.executable, "-m", "dpcollapse.cli"]
 
 
+def studies_cmd() -> list[str]:
+    """The studies' command line (studies/cli.py), run with ``cwd=ROOT``: not installed."""
+    return [sys.executable, "-m", "studies"]
+
+
 def run_cli(*args, timeout=600, **kw) -> subprocess.CompletedProcess:
     return subprocess.run(dpcollapse_cmd() + [str(a) for a in args], capture_output=True, text=True,
+                          timeout=timeout, env=clean_env(), cwd=ROOT, **kw)
+
+
+def run_studies(*args, timeout=600, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run(studies_cmd() + [str(a) for a in args], capture_output=True, text=True,
                           timeout=timeout, env=clean_env(), cwd=ROOT, **kw)
 
 

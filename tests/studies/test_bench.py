@@ -1,4 +1,4 @@
-"""`dpcollapse bench`: the harness on tiny cases (no time assertions: benchmarks are not
+"""`python -m studies bench`: the harness on tiny cases (no time assertions: benchmarks are not
 timed tests), and the instrumentation leaving the results untouched."""
 
 import csv
@@ -10,7 +10,7 @@ import pytest
 
 from studies.bench import (COLUMNS, PARTS, Instrument, default_configs_dir,
                               fitted_exponent, instrumented_simulation, load_case_config)
-from dpcollapse.cli import main
+from studies.cli import main
 
 
 def _rows(path):

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from dpcollapse.cli import main as cli_main
+from studies.cli import main as cli_main
 from studies import ladder
 
 
@@ -57,7 +57,7 @@ def test_ladder_quick(tmp_path):
     assert -0.2 < mui["runout_diff"] < 0 and mui["runout_sh"] < mui["runout_2d"]
     assert mui["cost_ratio_cpu"] > 1
 
-    # a second call (the `dpcollapse ladder` subcommand) finds the case in the CSV and does
+    # a second call (the `python -m studies ladder` subcommand) finds the case in the CSV and does
     # not run it again
     (work / "column_a2_quick" / "run.json").unlink()
     assert cli_main(["ladder", "--quick", "--out", str(out), "--work", str(work)]) == 0

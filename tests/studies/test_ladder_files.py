@@ -11,7 +11,7 @@ import shutil
 
 import pytest
 
-from dpcollapse.cli import main
+from studies.cli import main
 from studies import ladder
 from tests.helpers import ROOT
 

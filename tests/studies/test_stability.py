@@ -1,4 +1,4 @@
-"""``dpcollapse stability plug --quick`` and ``rigid --quick`` (reduced cell sets): the classes
+"""``python -m studies stability plug --quick`` and ``rigid --quick`` (reduced cell sets): the classes
 of known cells of the map, the Newton fallback column, the CSV and PNG, and bad input → exit 2."""
 
 import csv
@@ -6,11 +6,11 @@ import subprocess
 
 import pytest
 
-from tests.helpers import ROOT, dpcollapse_cmd
+from tests.helpers import ROOT, studies_cmd
 
 
 def _run_map(out, *args):
-    proc = subprocess.run(dpcollapse_cmd() + ["stability", *args, "--out", str(out)],
+    proc = subprocess.run(studies_cmd() + ["stability", *args, "--out", str(out)],
                           capture_output=True, text=True, cwd=ROOT, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     return proc
@@ -90,7 +90,7 @@ def test_front_at_compare_time_is_interpolated(tmp_path):
                                        (["--epsilons", "1e-2,abc"], "--epsilons"),
                                        (["--cap", "-1"], "--cap")])
 def test_bad_input_exit_2(args, key, tmp_path):
-    proc = subprocess.run(dpcollapse_cmd() + ["stability", "plug", "--quick", "--out", str(tmp_path), *args],
+    proc = subprocess.run(studies_cmd() + ["stability", "plug", "--quick", "--out", str(tmp_path), *args],
                           capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert proc.returncode == 2, proc.stderr
     assert key in proc.stderr and "Traceback" not in proc.stderr

@@ -1,4 +1,4 @@
-"""``dpcollapse wellposed --quick`` (two slopes × two meshes, < 60 s alone): the classes the
+"""``python -m studies wellposed --quick`` (two slopes × two meshes, < 60 s alone): the classes the
 measurement tells apart at that size, the CSV and PNG, and bad input → exit 2 in one line."""
 
 import csv
@@ -6,13 +6,13 @@ import subprocess
 
 import pytest
 
-from tests.helpers import ROOT, dpcollapse_cmd
+from tests.helpers import ROOT, studies_cmd
 
 
 @pytest.fixture(scope="module")
 def quick_map(tmp_path_factory):
     out = tmp_path_factory.mktemp("wellposed")
-    proc = subprocess.run(dpcollapse_cmd() + ["wellposed", "--quick", "--out", str(out)],
+    proc = subprocess.run(studies_cmd() + ["wellposed", "--quick", "--out", str(out)],
                           capture_output=True, text=True, cwd=ROOT, timeout=300)
     assert proc.returncode == 0, proc.stderr[-2000:]
     with (out / "stability_mui.csv").open() as f:
@@ -47,7 +47,7 @@ def test_quick_classes(quick_map):
                                        (["--diffusion-number", "-1"], "--diffusion-number"),
                                        (["--config", "configs/rigid.yaml"], "material.rheology")])
 def test_bad_input_exit_2(args, key, tmp_path):
-    proc = subprocess.run(dpcollapse_cmd() + ["wellposed", "--quick", "--out", str(tmp_path),
+    proc = subprocess.run(studies_cmd() + ["wellposed", "--quick", "--out", str(tmp_path),
                                               *args],
                           capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert proc.returncode == 2, proc.stderr

@@ -8,7 +8,7 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.io.diagnostics import read_diagnostics
 from dpcollapse.validation.plug import PlugObserver, reference_solution
-from tests.helpers import RIGID_BDF1, ROOT, paraview_summaries, run_cli, simulation
+from tests.helpers import RIGID_BDF1, ROOT, paraview_summaries, run_cli, run_studies, simulation
 
 AL = ["numerics.method=augmented_lagrangian", *RIGID_BDF1]   # bdf2 is refused with it
 #: Short coarse collapse that remeshes once (the smallest-angle trigger is raised).
@@ -115,8 +115,9 @@ def test_bad_augmented_keys_give_one_line(tmp_path, key, value, expected):
 
 
 def test_compare_harness(tmp_path):
-    """`dpcollapse compare plug --quick` writes its CSV, PNG and the matched-accuracy ratio."""
-    proc = run_cli("compare", "plug", "--quick", "--out", tmp_path)
+    """`python -m studies compare plug --quick` writes its CSV, PNG and the matched-accuracy
+    ratio."""
+    proc = run_studies("compare", "plug", "--quick", "--out", tmp_path)
     out = proc.stdout + proc.stderr
     assert proc.returncode == 0, out
     assert "ratio regularized/AL" in out

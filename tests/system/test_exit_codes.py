@@ -47,7 +47,9 @@ def test_plot_of_a_damaged_run_directory_is_bad_input(tmp_path, capsys):
 
 def test_ladder_plot_only_on_a_garbage_csv_is_bad_input(tmp_path, capsys):
     (tmp_path / "ladder.csv").write_text("garbage,,\n\x01 not a table\n")
-    assert main(["ladder", "--plot-only", "--out", str(tmp_path)]) == 2
+    from studies.cli import main as studies_main
+
+    assert studies_main(["ladder", "--plot-only", "--out", str(tmp_path)]) == 2
     assert "not a ladder table" in _one_error_line(capsys.readouterr().err)
 
 

@@ -71,12 +71,14 @@ def test_plot_sweep_into_a_read_only_folder_is_an_io_failure(tmp_path, capsys):
 
 
 def test_ladder_plot_only_into_a_read_only_folder_is_an_io_failure(tmp_path, capsys):
+    from studies.cli import main as studies_main
+
     out = tmp_path / "out"
     out.mkdir()
     for name in ("ladder.csv", "ladder_series.csv"):
         shutil.copy(FIGURES / name, out / name)
     with read_only(out):
-        assert main(["ladder", "--plot-only", "--out", str(out)]) == 5
+        assert studies_main(["ladder", "--plot-only", "--out", str(out)]) == 5
         line = _one_error_line(capsys.readouterr().err)
     assert "I/O failure" in line and str(out / "ladder.png") in line
     assert (out / "ladder.csv").read_bytes() == (FIGURES / "ladder.csv").read_bytes()

@@ -1,5 +1,7 @@
 """Imports point one way (docs/architecture.md, issue 24): every import in the package goes
 to a module of the same layer or a lower one in :data:`LAYERS`, and no import cycle exists.
+The package holds no study code (issue 48): no module under a ``studies``/``study`` name and
+no import of the top-level ``studies`` tree, whose drivers are the solver's clients.
 
 An import is an ``import``/``from … import`` statement anywhere in a module (also inside a
 function), or a module named by a string literal passed to ``importlib.import_module`` or
@@ -34,7 +36,6 @@ LAYERS: list[tuple[str, ...]] = [
     ("models",),
     ("progress", "stop_request", "fingerprint", "step_size", "loop", "simulation"),
     ("plot", "validation", "sweep"),
-    ("studies",),
     ("cli", "config_doc", "__init__"),
 ]
 
@@ -167,3 +168,42 @@ def test_imports_inside_functions_and_lazy_strings_count(tmp_path):
               "def g():\n    importlib.import_module('dpcollapse.simulation')\n")
     found = {t for node in ast.walk(ast.parse(source)) for t in _targets(node, "compat")}
     assert {"dpcollapse.cli", "dpcollapse.simulation"} <= found
+
+
+def study_code_in_the_package(package: Path = PACKAGE) -> list[str]:
+    """Modules of ``package`` that are study code: named ``studies``/``study…`` (a package or a
+    module), or importing the checkout's ``studies`` tree (statement, ``import_module`` or
+    ``_lazy`` string)."""
+    found = []
+    for path in sorted(package.rglob("*.py")):
+        rel = path.relative_to(package)
+        if any(part.startswith("stud") for part in rel.with_suffix("").parts):
+            found.append(f"dpcollapse/{rel}: a study module inside the solver package")
+        name = ".".join(rel.with_suffix("").parts)
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            targets = _targets(node, name.rsplit(".", 1)[0] if "." in name else "")
+            study = [t for t in targets if t == "studies" or t.startswith("studies.")]
+            if study:
+                found.append(f"dpcollapse/{rel}: imports {study[0]} (the solver imports no study)")
+    return found
+
+
+def test_the_package_holds_no_study_code():
+    found = study_code_in_the_package()
+    assert not found, "\n".join(found)
+
+
+@pytest.mark.parametrize("where, source", [
+    ("studies/ladder.py", "import numpy\n"),
+    ("study_maps.py", "x = 1\n"),
+    ("plot.py", "from studies import ladder\n"),
+    ("models/savage_hutter/setup.py", "def f():\n    import studies.savage_hutter\n"),
+    ("cli.py", "def f():\n    return _lazy('studies.bench', 'run_bench')\n"),
+])
+def test_a_study_inside_the_package_is_found(tmp_path, where, source):
+    package = tmp_path / "dpcollapse"
+    (package / where).parent.mkdir(parents=True, exist_ok=True)
+    (package / "errors.py").write_text("class E(Exception):\n    pass\n")
+    (package / where).write_text(source)
+    found = study_code_in_the_package(package)
+    assert len(found) == 1 and found[0].startswith(f"dpcollapse/{where}:"), found

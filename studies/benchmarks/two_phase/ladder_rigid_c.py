@@ -2,7 +2,7 @@
 and last output, read back with ParaView's Xdmf3ReaderT, with ∫ c of each.
 
 Usage: pvpython docs/benchmarks/two_phase/ladder_rigid_c.py RUN/solution.xdmf OUT.png
-(RUN: the ladder's work folder ``rigid_tp``, from ``dpcollapse ladder --two-phase``.)
+(RUN: the ladder's work folder ``rigid_tp``, from ``python -m studies ladder --two-phase``.)
 """
 import sys
 from pathlib import Path
