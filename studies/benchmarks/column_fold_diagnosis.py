@@ -1,7 +1,7 @@
 """Run a config and draw the mesh and the tagged boundary near the front at its last steps
 (the diagnosis of the folding toe in docs/benchmarks/2026-12-01-column.md).
 
-    python scripts/column_fold_diagnosis.py CONFIG OUT_DIR [KEY=VALUE ...]
+    python studies/benchmarks/column_fold_diagnosis.py CONFIG OUT_DIR [KEY=VALUE ...]
     -> OUT_DIR/toe.png (4 cm x 3 cm window), OUT_DIR/toe_zoom.png (1 cm x 2.5 mm window)
 
 Free surface blue, bed black, wall green, cells grey; the panels are the 9th, 5th and

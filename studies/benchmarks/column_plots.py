@@ -1,14 +1,14 @@
 """Plots of the column-collapse report (docs/benchmarks/2026-12-01-column.md).
 
-    python scripts/column_plots.py front RUN_DIR OUT.png      # front, top height vs t sqrt(g/H0)
-    python scripts/column_plots.py law SWEEP_DIR OUT.png [T]  # runout law from sweep.csv
+    python studies/benchmarks/column_plots.py front RUN_DIR OUT.png      # front, top height vs t sqrt(g/H0)
+    python studies/benchmarks/column_plots.py law SWEEP_DIR OUT.png [T]  # runout law from sweep.csv
                                                               # (T: at t sqrt(g/H0) = T instead of the end)
-    python scripts/column_plots.py fraction OUT.png RUN_DIR...  # two_phase: c at the last output
-    python scripts/column_plots.py laws OUT.png T NAME=SWEEP_DIR...  # several sweeps in one plot,
+    python studies/benchmarks/column_plots.py fraction OUT.png RUN_DIR...  # two_phase: c at the last output
+    python studies/benchmarks/column_plots.py laws OUT.png T NAME=SWEEP_DIR...  # several sweeps in one plot,
                                                               # fronts at t sqrt(g/H0) = T
                                                               # (T = end: each run's last step);
                                                               # writes the points to OUT.csv
-    python scripts/column_plots.py table OUT.png LAW.csv      # the same plot from such a table
+    python studies/benchmarks/column_plots.py table OUT.png LAW.csv      # the same plot from such a table
 
 ``law`` also prints the fitted power laws ΔL/L0 = c a^n on a ≤ 3 and a ≥ 3 and
 H_f/L0 = c a^n on a ≥ 0.7, per bed condition and mesh size, from the cases at rest or at
