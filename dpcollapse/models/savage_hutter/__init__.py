@@ -9,8 +9,8 @@ with μ_eff the basal friction (Coulomb or μ(Ī), ``friction``) plus the option
 μ_w h/w, and K = 1 (hydrostatic) or Savage & Hutter's earth-pressure coefficient
 (``earth_pressure``). ``scheme`` holds the finite-volume step (HLL fluxes, friction that locks interfaces at
 rest, implicit Coulomb stopping), ``solver`` the time loop and outputs, ``exact`` the analytic
-solutions used for verification, ``validate`` the convergence study (``python -m
-studies.savage_hutter``). See docs/savage_hutter.md.
+solutions used for verification. The convergence study is a client in the checkout, not part
+of the package (``python -m studies.savage_hutter``). See docs/savage_hutter.md.
 """
 
 from dpcollapse.models.savage_hutter.earth_pressure import EarthPressure
