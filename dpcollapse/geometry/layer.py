@@ -1,9 +1,9 @@
-"""A layer of thickness h on an inclined plane, periodic in x (seed 000, case a).
+"""A rectangle [0, L] × [0, H] in structured triangles with its sides tagged (the periodic
+layer's mesh, ``scenes.layer``; the two-phase model's box, ``scenes.base.box_container``).
 
-Slope coordinates: x along the bed, y normal to it; the rectangle [0, L] × [0, h] with a
-structured triangulation, so the nodes on x = 0 and x = L match for the periodic
-constraint. Facets: bed (y = 0), free surface (y = h), periodic sides LEFT (x = 0) and
-RIGHT (x = L).
+Slope coordinates: x along the bed, y normal to it; the nodes on x = 0 and x = L match
+(a periodic constraint needs them to). Facets: bed (y = 0), SURFACE (y = H), LEFT (x = 0)
+and RIGHT (x = L).
 """
 
 from __future__ import annotations
@@ -19,17 +19,8 @@ from dpcollapse.geometry.mesher import (
     LEFT,
     RIGHT,
     SURFACE,
-    TAG_NAMES,
     TaggedMesh,
-    gmsh_session,
 )
-
-
-def layer_mesh(comm: MPI.Comm, length: float, thickness: float, mesh_size: float) -> TaggedMesh:
-    """Structured triangles of size ≈ mesh_size on [0, length] × [0, thickness]."""
-    nx = max(1, round(length / mesh_size))
-    ny = max(1, round(thickness / mesh_size))
-    return structured_rectangle(comm, length, thickness, nx, ny)
 
 
 def structured_rectangle(comm: MPI.Comm, length: float, height: float, nx: int, ny: int) -> TaggedMesh:
@@ -54,29 +45,3 @@ def structured_rectangle(comm: MPI.Comm, length: float, height: float, nx: int, 
     cells = np.arange(compat.num_owned_cells(mesh), dtype=np.int32)
     return TaggedMesh(mesh, compat.meshtags(mesh, fdim, indices, values[first]),
                       compat.meshtags(mesh, fdim + 1, cells, np.full(len(cells), DOMAIN)))
-
-
-def write_layer_msh(path, length: float, thickness: float, mesh_size: float) -> None:
-    """Write the layer as a structured gmsh mesh (the divisions of ``layer_mesh``; matching
-    nodes on x = 0 and x = L) with the physical tags BED, RIGHT, SURFACE, LEFT, DOMAIN."""
-    nx = max(1, round(length / mesh_size))
-    ny = max(1, round(thickness / mesh_size))
-    corners = [(0.0, 0.0), (length, 0.0), (length, thickness), (0.0, thickness)]
-    sides = [(BED, nx), (RIGHT, ny), (SURFACE, nx), (LEFT, ny)]   # side i: corner i -> i + 1
-    with gmsh_session() as gmsh:
-        gmsh.model.add("layer")
-        geo = gmsh.model.geo
-        points = [geo.addPoint(x, y, 0.0, mesh_size) for x, y in corners]
-        lines = [geo.addLine(points[i], points[(i + 1) % 4]) for i in range(4)]
-        for line, (_, n) in zip(lines, sides):
-            geo.mesh.setTransfiniteCurve(line, n + 1)
-        surface = geo.addPlaneSurface([geo.addCurveLoop(lines)])
-        geo.mesh.setTransfiniteSurface(surface)
-        geo.synchronize()
-        for line, (tag, _) in zip(lines, sides):
-            gmsh.model.addPhysicalGroup(1, [line], tag)
-            gmsh.model.setPhysicalName(1, tag, TAG_NAMES[tag])
-        gmsh.model.addPhysicalGroup(2, [surface], DOMAIN)
-        gmsh.model.setPhysicalName(2, DOMAIN, "granular_mass")
-        gmsh.model.mesh.generate(2)
-        gmsh.write(str(path))

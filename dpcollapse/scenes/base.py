@@ -269,10 +269,43 @@ def thickness_front(points: np.ndarray, threshold: float) -> float:
     return -np.inf
 
 
-class PolygonScene:
+@dataclass(frozen=True)
+class SceneSections:
+    """A scene that holds its config sections instead of copying their keys: ``geometry``
+    (its class of ``config.geometry``, e.g. ``ColumnGeometry``), ``boundary``
+    (``config.numerics.BoundaryConfig``: the bed condition, μ_b, μ_l) and ``initial``
+    (``config.run.InitialConfig``: the initial velocity). A scene is built from the config by
+    ``from_config`` and reads every length, angle and friction from these sections."""
+
+    geometry: object
+    boundary: object
+    initial: object
+
+    @classmethod
+    def from_config(cls, cfg):
+        return cls(cfg.geometry, cfg.boundary, cfg.initial)
+
+    @property
+    def mesh_size(self) -> float:
+        return self.geometry.mesh_size
+
+    def bed(self) -> Boundary:
+        """The bed y = 0 of ``boundary.bed_condition`` (``bed_boundary``)."""
+        return bed_boundary(BED, self.boundary.bed_condition, self.boundary.mu_bed)
+
+
+class PolygonScene(SceneSections):
     """Mesh and .msh output of a scene that is one tagged polygon (``polygon()`` on rank 0),
-    or the gmsh file ``mesh_file`` when one is given. The scene dataclass provides
-    ``polygon``, ``mesh_file``, ``mesh_size`` and ``surface_mesh_size``."""
+    or the gmsh file ``geometry.mesh_file`` when one is given (cells of
+    ``geometry.mesh_size``, ``geometry.surface_mesh_size`` on the free surface)."""
+
+    @property
+    def surface_mesh_size(self) -> float | None:
+        return self.geometry.surface_mesh_size
+
+    @property
+    def mesh_file(self) -> Path | None:
+        return self.geometry.mesh_file
 
     def mesh(self, comm) -> TaggedMesh:
         if self.mesh_file:
