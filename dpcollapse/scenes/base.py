@@ -169,6 +169,10 @@ class Scene(Protocol):
     def extent(self, x: np.ndarray) -> tuple[float, float]:
         """(front, maximum height) of the local nodes ``x`` (n, 3); −inf for no nodes."""
 
+    def bed_height(self, x: np.ndarray) -> np.ndarray:
+        """y = b(x) of the rigid bed under the abscissae ``x`` (0: the bed y = 0;
+        ``SceneSections`` gives that)."""
+
     def write_msh(self, path: Path) -> Path:
         """Write the initial mesh to a gmsh ``.msh`` file (``dpcollapse mesh``)."""
 
@@ -288,6 +292,12 @@ class SceneSections:
     @property
     def mesh_size(self) -> float:
         return self.geometry.mesh_size
+
+    def bed_height(self, x: np.ndarray) -> np.ndarray:
+        """y = b(x) of the rigid bed under the abscissae ``x`` [m]: 0, the bed y = 0 (a scene
+        whose bed has a step overrides it; the moving mesh lands nodes on it and lets bed nodes
+        that pass the end of a higher bed take off, ``ale.motion``)."""
+        return np.zeros_like(np.asarray(x, dtype=float))
 
     def bed(self) -> Boundary:
         """The bed y = 0 of ``boundary.bed_condition`` (``bed_boundary``)."""
