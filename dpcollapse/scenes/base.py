@@ -29,7 +29,7 @@ from typing import Protocol
 
 import numpy as np
 
-from dpcollapse.geometry.layer import structured_rectangle
+from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.geometry.mesher import (
     BED,
     LEFT,
@@ -136,7 +136,7 @@ class Container:
 def box_container(length: float, height: float, boundaries: tuple[Boundary, ...],
                   region: tuple[np.ndarray, ...], **details) -> Container:
     """The rectangle [0, length] × [0, height] in structured triangles (sides tagged BED,
-    LEFT, RIGHT, SURFACE: ``geometry.layer.structured_rectangle``); ``details`` the
+    LEFT, RIGHT, SURFACE: ``geometry.rectangle.structured_rectangle``); ``details`` the
     :class:`Container`'s optional fields."""
     def mesh(comm, cell_size):
         nx, ny = max(2, round(length / cell_size)), max(2, round(height / cell_size))

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from dpcollapse.geometry.layer import structured_rectangle
+from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.geometry.mesher import (
     BED,
     DOMAIN,

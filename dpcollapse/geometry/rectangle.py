@@ -1,5 +1,5 @@
 """A rectangle [0, L] × [0, H] in structured triangles with its sides tagged (the periodic
-layer's mesh, ``scenes.layer``; the two-phase model's box, ``scenes.base.box_container``).
+layer's mesh, ``scenes.periodic_layer``; the two-phase model's box, ``scenes.base.box_container``).
 
 Slope coordinates: x along the bed, y normal to it; the nodes on x = 0 and x = L match
 (a periodic constraint needs them to). Facets: bed (y = 0), SURFACE (y = H), LEFT (x = 0)
