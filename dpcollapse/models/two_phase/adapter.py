@@ -39,7 +39,7 @@ from dpcollapse.io.law_fields import LawFields
 from dpcollapse.models.base import DiscretizationDefaults
 from dpcollapse.models.stokes.regularized import picard_settings
 from dpcollapse.models.stokes.state import FlowParameters
-from dpcollapse.models.two_phase.adaptive import AdaptiveBox, SizeField, equivalent_size
+from dpcollapse.domain.adaptive_box import AdaptiveBox, SizeField, equivalent_size
 from dpcollapse.models.two_phase.flow import LightFluid, TwoPhaseFlow
 from dpcollapse.models.two_phase.fraction import owned_triangles
 from dpcollapse.models.two_phase.erodible_layer import MEASURES as LAYER_MEASURES
