@@ -1,4 +1,11 @@
-"""ALE mesh motion: solve for the mesh velocity w, limit Δt, move the nodes by Δt·w."""
+"""ALE mesh motion: solve for the mesh velocity w, limit Δt, move the nodes by Δt·w.
+
+The rigid bed under the mass is the scene's profile y = b(x) (``Scene.bed_height``: b = 0
+for a flat bed; a step down at x_e: b = s for x < x_e, 0 beyond). A free-surface node of an
+overturning nose that comes down on it lands there (its facets become bed facets); a bed
+node that slides past the end of a higher bed (b(x) < y: it has left the plateau) takes
+off, and a bed facet whose two nodes have taken off becomes free surface.
+"""
 
 from __future__ import annotations
 
@@ -29,8 +36,10 @@ class MeshMotion:
     ~4× cheaper to solve.
     """
 
-    def __init__(self, flow, penalty: float, linear_solver: str = "mumps"):
+    def __init__(self, flow, penalty: float, linear_solver: str = "mumps", bed_height=None):
         self.flow = flow
+        #: y = b(x) of the rigid bed under the abscissae x (``Scene.bed_height``; None: y = 0)
+        self.bed_height = bed_height or flat_bed
         mesh = self.mesh = flow.mesh
         self.w = flow.mesh_velocity
         Vw = self.w.function_space
@@ -55,9 +64,11 @@ class MeshMotion:
         ft = flow.tagged.facet_tags
         self._surface_nodes = _tagged_nodes(mesh, ft, SURFACE)
         self._bed_nodes = _tagged_nodes(mesh, ft, BED)
-        # the bed is the line y = 0 (not a rotated scene): free-surface nodes stay above it
-        flat = bool(np.all(mesh.geometry.x[self._bed_nodes, 1] == 0.0))
-        self._flat_bed = mesh.comm.allreduce(flat, op=MPI.LAND) and mesh.comm.allreduce(
+        # the bed nodes lie on the bed profile y = b(x) (not a rotated scene): free-surface
+        # nodes stay above it
+        xb = mesh.geometry.x[self._bed_nodes]
+        on = bool(np.all(xb[:, 1] == self.bed_height(xb[:, 0])))
+        self._on_profile = mesh.comm.allreduce(on, op=MPI.LAND) and mesh.comm.allreduce(
             len(self._bed_nodes), op=MPI.SUM) > 0
 
     def _slip_bcs(self, Vw):
@@ -120,20 +131,37 @@ class MeshMotion:
         """w at every geometry node, (num_nodes, 2)."""
         return self.w.x.array.reshape(-1, 2)[self._node_dof]
 
-    def toe_position(self) -> float:
-        """x of the toe: the furthest bed node (global)."""
-        x = self.mesh.geometry.x
-        local = float(x[self._bed_nodes, 0].max()) if len(self._bed_nodes) else -np.inf
-        return self.mesh.comm.allreduce(local, op=MPI.MAX)
+    def _bed_spans(self, x: np.ndarray) -> dict[float, tuple[float, float]]:
+        """bed level b -> (smallest, largest) x of the bed nodes on it (global): the toe is
+        the largest x on the level of the bed the mass started on."""
+        xb = x[self._bed_nodes]
+        levels = self.bed_height(xb[:, 0])
+        comm = self.mesh.comm
+        spans = {}
+        for level in sorted(set().union(*comm.allgather(set(np.unique(levels).tolist())))):
+            on = xb[levels == level, 0]
+            lo = comm.allreduce(float(on.min()) if len(on) else np.inf, op=MPI.MIN)
+            hi = comm.allreduce(float(on.max()) if len(on) else -np.inf, op=MPI.MAX)
+            spans[level] = (lo, hi)
+        return spans
 
     def _overhang(self, x: np.ndarray) -> np.ndarray:
-        """Mask of free-surface nodes ahead of the toe (an overturning front's nose)."""
-        return x[self._surface_nodes, 0] > self.toe_position()
+        """Mask of free-surface nodes over no bed node of the bed level under them: an
+        overturning front's nose ahead of the toe, or the underside of a mass falling from a
+        higher bed onto a lower one where none of it has landed yet."""
+        xs = x[self._surface_nodes]
+        levels = self.bed_height(xs[:, 0])
+        over = np.ones(len(xs), dtype=bool)
+        for level, (lo, hi) in self._bed_spans(x).items():
+            at = levels == level
+            over[at] = (xs[at, 0] < lo) | (xs[at, 0] > hi)
+        return over
 
     def max_step(self, dt: float, shrink: float = 0.5) -> float:
         """Largest step ≤ ``dt`` (global) such that every cell keeps ``shrink`` of its area,
-        no free-surface node behind the toe loses more than ``shrink`` of its height, and no
-        node of an overturning nose (ahead of the toe) goes below the bed: such a node lands
+        no free-surface node over the bed loses more than ``shrink`` of its height above the
+        bed b(x), and no node of an overturning nose (over no bed node: ahead of the toe, or
+        under a mass falling from a higher bed, ``_overhang``) goes below the bed: such a node lands
         exactly on it (seed 000: "limit the time step so that the free surface nodes do not
         cross the bottom"). A nose node that would land within ``LANDING_FRACTION``·dt does
         not shorten the step (no Zeno sequence of ever smaller steps): it reaches the bed
@@ -141,7 +169,8 @@ class MeshMotion:
         x = self.mesh.geometry.x[:, :2]
         vel = self.node_velocity()
         tau = min(dt, max_safe_step(x[self._cells], vel[self._cells], shrink))
-        y = x[self._surface_nodes, 1]
+        xs = x[self._surface_nodes]
+        y = xs[:, 1] - self.bed_height(xs[:, 0])    # the height above the bed under the node
         vy = vel[self._surface_nodes, 1]
         ahead = self._overhang(x)
         falling = (vy < 0) & (y > 0)
@@ -152,26 +181,42 @@ class MeshMotion:
             tau = min(tau, float(np.min(limit[constraining])))
         return self.mesh.comm.allreduce(tau, op=MPI.MIN)
 
-    def move(self, dt: float) -> tuple[np.ndarray, int]:
-        """x ← x + Δt·w. Nose nodes that reach the bed are put exactly on it (they
+    def move(self, dt: float) -> tuple[np.ndarray, int, int]:
+        """x ← x + Δt·w. Nose nodes that reach the bed y = b(x) are put exactly on it (they
         arrive there by their own velocity; the correction is round-off). Returns the old
-        coordinates (to undo the move) and the global number of nodes that landed."""
+        coordinates (to undo the move), the global number of nodes that landed and of bed
+        nodes that took off in this move (slid past the end of a higher bed: b(x) < y): their
+        bed facets become free surface (``retag_bed``), the facet from the last node on the
+        higher bed to the first past its end spans the edge (a chord: O(h) from the corner)."""
         x = self.mesh.geometry.x
         old = x.copy()
         ahead = self._overhang(x)
         x[:, :2] += dt * self.node_velocity()
+        b = self.bed_height
         nodes = self._surface_nodes[ahead]
         scale = max(float(np.ptp(old[:, 0])), 1e-300)
-        landed = nodes[(x[nodes, 1] <= LANDING_TOLERANCE * scale) & (old[nodes, 1] > 0)]
-        x[landed, 1] = 0.0
+        bed_new = b(x[nodes, 0])
+        came_from_above = old[nodes, 1] > np.maximum(b(old[nodes, 0]), bed_new)
+        landed = nodes[(x[nodes, 1] - bed_new <= LANDING_TOLERANCE * scale) & came_from_above]
+        x[landed, 1] = b(x[landed, 0])
         # no free-surface node goes below the rigid bed: one already on it (landed, its
         # facets not yet retagged) is not held there by w·n = 0 nor seen by the step limit
-        # (height 0); one behind the toe may overshoot through the mesh-velocity smoothing
-        surface = self._surface_nodes if self._flat_bed else self._surface_nodes[:0]
-        below = surface[x[surface, 1] < 0.0]
-        x[below, 1] = 0.0
-        landed = np.union1d(landed, below[old[below, 1] > 0])
-        return old, self.mesh.comm.allreduce(len(landed), op=MPI.SUM)
+        # (height 0); one behind the toe may overshoot through the mesh-velocity smoothing.
+        # A node that went in under a higher bed sideways (through a step's face, from below
+        # its top) is put back on the face instead (``_stop_at_face``).
+        surface = self._surface_nodes if self._on_profile else self._surface_nodes[:0]
+        bed_at = b(x[surface, 0])
+        sideways = (bed_at > b(old[surface, 0])) & (old[surface, 1] < bed_at)
+        below = surface[(x[surface, 1] < bed_at) & ~sideways]
+        x[below, 1] = b(x[below, 0])
+        landed = np.union1d(landed, below[old[below, 1] > b(old[below, 0])])
+        bed = self._bed_nodes
+        if self._on_profile:
+            _stop_at_face(x, old, np.union1d(surface, bed), b)
+        # off the bed: above it after the move (slid past a higher bed's end)
+        took_off = bed[x[bed, 1] > b(x[bed, 0])] if self._on_profile else bed[:0]
+        comm = self.mesh.comm
+        return old, comm.allreduce(len(landed), op=MPI.SUM), comm.allreduce(len(took_off), op=MPI.SUM)
 
     def destroy(self) -> None:
         self.system.destroy()
@@ -183,14 +228,47 @@ def _tagged_nodes(mesh, facet_tags, tag: int) -> np.ndarray:
     return np.unique(compat.entities_to_geometry(mesh, 1, facets).ravel())
 
 
-def retag_landed(tagged):
-    """Free-surface facets lying on the bed (both nodes at y = 0) become bed facets."""
+#: Bisections of a node's move that find where it meets a step's face (2⁻³⁰ of the move).
+FACE_BISECTIONS = 30
+
+
+def _stop_at_face(x: np.ndarray, old: np.ndarray, nodes: np.ndarray, bed_height) -> None:
+    """Boundary nodes that moved sideways into a higher bed (below b(x) now, at or above
+    the bed under them before: through a step's face) are put back along their move to where
+    they meet the face (bisection of the move to FACE_BISECTIONS halvings, on the side of the
+    open lower bed): the face is a rigid wall that they then slide along."""
+    b = bed_height
+    inside = nodes[(x[nodes, 1] < b(x[nodes, 0])) & (old[nodes, 1] >= b(old[nodes, 0]))
+                   & (b(x[nodes, 0]) > b(old[nodes, 0]))]
+    if not len(inside):
+        return
+    start, end = old[inside, :2], x[inside, :2].copy()
+    lo, hi = np.zeros(len(inside)), np.ones(len(inside))
+    for _ in range(FACE_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        p = start + mid[:, None] * (end - start)
+        into = p[:, 1] < b(p[:, 0])
+        hi, lo = np.where(into, mid, hi), np.where(into, lo, mid)
+    x[inside, :2] = start + lo[:, None] * (end - start)
+
+
+def flat_bed(x: np.ndarray) -> np.ndarray:
+    """b(x) = 0: the bed is the line y = 0."""
+    return np.zeros_like(np.asarray(x, dtype=float))
+
+
+def retag_bed(tagged, bed_height=flat_bed):
+    """Free-surface facets lying on the bed y = b(x) (both nodes) become bed facets (a landed
+    nose); a bed facet with a node above it (slid past the end of a higher bed) becomes free
+    surface: every bed node stays on the profile."""
     from dpcollapse.geometry.mesher import TaggedMesh
 
     mesh, ft = tagged.mesh, tagged.facet_tags
     nodes = compat.entities_to_geometry(mesh, 1, ft.indices)
-    on_bed = np.all(mesh.geometry.x[nodes, 1] == 0.0, axis=1)
-    values = np.where((ft.values == SURFACE) & on_bed, BED, ft.values)
+    x = mesh.geometry.x[nodes]                         # (facets, 2 nodes, 3)
+    height = x[:, :, 1] - bed_height(x[:, :, 0])
+    values = np.where((ft.values == SURFACE) & np.all(height == 0.0, axis=1), BED, ft.values)
+    values = np.where((ft.values == BED) & np.any(height > 0.0, axis=1), SURFACE, values)
     return TaggedMesh(mesh, compat.meshtags(mesh, 1, ft.indices, values), tagged.cell_tags)
 
 

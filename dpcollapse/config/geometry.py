@@ -221,6 +221,44 @@ class HeapGeometry(_Geometry):
         return self
 
 
+class DamBreakStepGeometry(_Geometry):
+    """A dam break on a step: the column [0, L0] x [s, s + H0] on a plateau y = s that runs
+    from the wall x = 0 to its edge x_e, where the bed drops by s to the lower bed y = 0
+    (scenes/dambreak_step.py)."""
+
+    shape: Literal["dambreak_step"] = _f("dambreak_step", "", "A column released on a plateau "
+                                         "that ends in a step down")
+    height: Number = _f(0.1, "m", "Height H0 of the column", gt=0)
+    base_length: Number = _f(0.1, "m", "Length L0 of the column, from the wall", gt=0)
+    plateau_length: Number = _f(0.12, "m", "Distance x_e from the wall to the step's edge "
+                                "(>= base_length: the column stands on the plateau)", gt=0)
+    step_height: Number = _f(0.05, "m", "Height s of the step down to the lower bed", gt=0)
+    bed_angle: Number = _bed_angle()
+    mesh_size: Number = _mesh_size()
+    surface_mesh_size: Number | None = _surface_mesh_size()
+    mesh_file: PathStr | None = _mesh_file("column")
+
+    @property
+    def area(self) -> float:
+        """H0 * L0 [m^2]."""
+        return self.height * self.base_length
+
+    def describe(self) -> str:
+        return (f"column: height {self.height:g} m, length {self.base_length:g} m on a plateau "
+                f"to x = {self.plateau_length:g} m, step {self.step_height:g} m, area "
+                f"{self.area:.4f} m^2")
+
+    @model_validator(mode="after")
+    def _fits(self) -> DamBreakStepGeometry:
+        if self.base_length > self.plateau_length:
+            raise ConfigError(f"geometry.base_length = {_fmt(self.base_length)}: must be <= "
+                              f"geometry.plateau_length = {_fmt(self.plateau_length)} m (the "
+                              "column stands on the plateau)")
+        limit = min(self.height, self.base_length)
+        self._cells_fit(limit, f"column (must be < {limit:.3g} m = min(height, base_length))")
+        return self
+
+
 class ErodibleGeometry(TrapezoidGeometry):
     """The trapezoid of ``trapezoid`` released on a layer of the same material (seed 000 case
     II, erodible bed): the layer [0, layer_length] x [0, layer_thickness] on the bed, the
@@ -375,10 +413,12 @@ def _shape_of(value: Any) -> str:
 GeometryConfig = Annotated[
     Annotated[TrapezoidGeometry, Tag("trapezoid")] | Annotated[LayerGeometry, Tag("layer")]
     | Annotated[ColumnGeometry, Tag("column")] | Annotated[ErodibleGeometry, Tag("erodible")]
-    | Annotated[SiloGeometry, Tag("silo")] | Annotated[HeapGeometry, Tag("heap")],
+    | Annotated[SiloGeometry, Tag("silo")] | Annotated[HeapGeometry, Tag("heap")]
+    | Annotated[DamBreakStepGeometry, Tag("dambreak_step")],
     Discriminator(_shape_of),
 ]
 #: geometry.shape -> its config class
 GEOMETRIES: dict[str, type[_Geometry]] = {"trapezoid": TrapezoidGeometry, "layer": LayerGeometry,
                                           "column": ColumnGeometry, "erodible": ErodibleGeometry,
-                                          "silo": SiloGeometry, "heap": HeapGeometry}
+                                          "silo": SiloGeometry, "heap": HeapGeometry,
+                                          "dambreak_step": DamBreakStepGeometry}

@@ -30,7 +30,7 @@ import logging
 import math
 
 from dpcollapse import compat
-from dpcollapse.ale.motion import quality, retag_landed
+from dpcollapse.ale.motion import quality, retag_bed
 from dpcollapse.ale.remesh import boundary_contact
 from dpcollapse.domain.region_remesh import remesh_regions
 from dpcollapse.errors import MeshError
@@ -98,13 +98,17 @@ class MovingDomain:
 
     def move(self, disc, dt: float):
         """x ← x + Δt w: (old coordinates, the mesh with the facets of front nodes that landed
-        on the bed retagged as bed (``ale.motion.retag_landed``) or None, nodes landed)."""
+        on the bed retagged as bed and those of bed nodes that slid past the end of a higher
+        bed as free surface (``ale.motion.retag_bed``), or None)."""
         self._landed += self._attempt   # the previous move was kept (``undo`` not called)
-        old_x, landed = disc.motion.move(dt)
+        old_x, landed, took_off = disc.motion.move(dt)
         self._attempt = landed
         if landed:
             log.debug("%d nose node(s) landed on the bed", landed)
-        return old_x, (retag_landed(disc.tagged) if landed else None)
+        if took_off:
+            log.debug("%d bed node(s) past the end of a higher bed", took_off)
+        changed = landed or took_off
+        return old_x, (retag_bed(disc.tagged, disc.motion.bed_height) if changed else None)
 
     def undo(self, disc, old_x) -> None:
         disc.mesh.geometry.x[:] = old_x

@@ -29,7 +29,7 @@ from typing import Protocol
 
 import numpy as np
 
-from dpcollapse.geometry.layer import structured_rectangle
+from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.geometry.mesher import (
     BED,
     LEFT,
@@ -136,7 +136,7 @@ class Container:
 def box_container(length: float, height: float, boundaries: tuple[Boundary, ...],
                   region: tuple[np.ndarray, ...], **details) -> Container:
     """The rectangle [0, length] × [0, height] in structured triangles (sides tagged BED,
-    LEFT, RIGHT, SURFACE: ``geometry.layer.structured_rectangle``); ``details`` the
+    LEFT, RIGHT, SURFACE: ``geometry.rectangle.structured_rectangle``); ``details`` the
     :class:`Container`'s optional fields."""
     def mesh(comm, cell_size):
         nx, ny = max(2, round(length / cell_size)), max(2, round(height / cell_size))
@@ -168,6 +168,10 @@ class Scene(Protocol):
 
     def extent(self, x: np.ndarray) -> tuple[float, float]:
         """(front, maximum height) of the local nodes ``x`` (n, 3); −inf for no nodes."""
+
+    def bed_height(self, x: np.ndarray) -> np.ndarray:
+        """y = b(x) of the rigid bed under the abscissae ``x`` (0: the bed y = 0;
+        ``SceneSections`` gives that)."""
 
     def write_msh(self, path: Path) -> Path:
         """Write the initial mesh to a gmsh ``.msh`` file (``dpcollapse mesh``)."""
@@ -269,10 +273,49 @@ def thickness_front(points: np.ndarray, threshold: float) -> float:
     return -np.inf
 
 
-class PolygonScene:
+@dataclass(frozen=True)
+class SceneSections:
+    """A scene that holds its config sections instead of copying their keys: ``geometry``
+    (its class of ``config.geometry``, e.g. ``ColumnGeometry``), ``boundary``
+    (``config.numerics.BoundaryConfig``: the bed condition, μ_b, μ_l) and ``initial``
+    (``config.run.InitialConfig``: the initial velocity). A scene is built from the config by
+    ``from_config`` and reads every length, angle and friction from these sections."""
+
+    geometry: object
+    boundary: object
+    initial: object
+
+    @classmethod
+    def from_config(cls, cfg):
+        return cls(cfg.geometry, cfg.boundary, cfg.initial)
+
+    @property
+    def mesh_size(self) -> float:
+        return self.geometry.mesh_size
+
+    def bed_height(self, x: np.ndarray) -> np.ndarray:
+        """y = b(x) of the rigid bed under the abscissae ``x`` [m]: 0, the bed y = 0 (a scene
+        whose bed has a step overrides it; the moving mesh lands nodes on it and lets bed nodes
+        that pass the end of a higher bed take off, ``ale.motion``)."""
+        return np.zeros_like(np.asarray(x, dtype=float))
+
+    def bed(self) -> Boundary:
+        """The bed y = 0 of ``boundary.bed_condition`` (``bed_boundary``)."""
+        return bed_boundary(BED, self.boundary.bed_condition, self.boundary.mu_bed)
+
+
+class PolygonScene(SceneSections):
     """Mesh and .msh output of a scene that is one tagged polygon (``polygon()`` on rank 0),
-    or the gmsh file ``mesh_file`` when one is given. The scene dataclass provides
-    ``polygon``, ``mesh_file``, ``mesh_size`` and ``surface_mesh_size``."""
+    or the gmsh file ``geometry.mesh_file`` when one is given (cells of
+    ``geometry.mesh_size``, ``geometry.surface_mesh_size`` on the free surface)."""
+
+    @property
+    def surface_mesh_size(self) -> float | None:
+        return self.geometry.surface_mesh_size
+
+    @property
+    def mesh_file(self) -> Path | None:
+        return self.geometry.mesh_file
 
     def mesh(self, comm) -> TaggedMesh:
         if self.mesh_file:

@@ -10,7 +10,6 @@ scales as ΔL/L0 ∝ a for a ≲ 3 and a^(2/3) above (seed 003).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -26,54 +25,43 @@ from dpcollapse.scenes.base import (
     Container,
     PolygonScene,
     box_container,
-    open_box_boundaries,
-    bed_boundary,
     initial_velocity,
+    open_box_boundaries,
     top_extent,
 )
 
 
 @dataclass(frozen=True)
 class ColumnScene(PolygonScene):
+    """Holds ``config.geometry.ColumnGeometry`` (height H0, half-width ``base_length`` L0),
+    the boundary and initial sections (``SceneSections``)."""
+
     shape = "column"
 
-    height: float
-    half_width: float
-    mesh_size: float
-    surface_mesh_size: float | None
-    mesh_file: Path | None
-    bed_condition: str
-    mu_bed: float
-    velocity: str = "rest"
-    surface_speed: float = 0.0
-
-    @classmethod
-    def from_config(cls, cfg) -> ColumnScene:
-        g, b = cfg.geometry, cfg.boundary
-        return cls(g.height, g.base_length, g.mesh_size, g.surface_mesh_size, g.mesh_file,
-                   b.bed_condition, b.mu_bed, cfg.initial.velocity, cfg.initial.surface_speed)
+    def rectangle(self) -> np.ndarray:
+        """The column [0, L0] × [0, H0], counter-clockwise from the origin."""
+        g = self.geometry
+        return np.array([[0.0, 0.0], [g.base_length, 0.0], [g.base_length, g.height],
+                         [0.0, g.height]])
 
     def polygon(self):
         """CCW vertices and edge tags: bed, right side and top (free surface), symmetry wall."""
-        points = np.array([[0.0, 0.0], [self.half_width, 0.0], [self.half_width, self.height],
-                           [0.0, self.height]])
-        return points, np.array([BED, SURFACE, SURFACE, WALL], dtype=np.int32)
+        return self.rectangle(), np.array([BED, SURFACE, SURFACE, WALL], dtype=np.int32)
 
     def boundaries(self) -> tuple[Boundary, ...]:
-        return (bed_boundary(BED, self.bed_condition, self.mu_bed),
+        return (self.bed(),
                 Boundary(WALL, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0)),
                 Boundary(SURFACE, "surface", BoundaryKind.FREE_SURFACE))
 
     def container(self, box) -> Container:
         """The column [0, L0] × [0, H0] in the box, the symmetry plane x = 0 (slip)."""
-        region = np.array([[0.0, 0.0], [self.half_width, 0.0], [self.half_width, self.height],
-                           [0.0, self.height]])
         return box_container(*box, open_box_boundaries(
-            bed_boundary(BED, self.bed_condition, self.mu_bed),
-            Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0))), (region,))
+            self.bed(), Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0))),
+            (self.rectangle(),))
 
     def initial_velocity(self):
-        return initial_velocity(self.velocity, self.height, self.surface_speed)
+        return initial_velocity(self.initial.velocity, self.geometry.height,
+                                self.initial.surface_speed)
 
     def extent(self, x):
         return top_extent(x)

@@ -36,7 +36,7 @@ from dpcollapse.geometry.mesher import BED
 from dpcollapse.scenes.base import (
     Boundary,
     Container,
-    bed_boundary,
+    SceneSections,
     box_container,
     box_wall,
     initial_velocity,
@@ -81,65 +81,51 @@ def erodible_regions(height: float, base_length: float, flank_angle_deg: float,
     return [layer, mass]
 
 @dataclass(frozen=True)
-class ErodibleScene:
+class ErodibleScene(SceneSections):
+    """Holds ``config.geometry.ErodibleGeometry`` (the trapezoid's h0, l0, α0 and the layer's
+    h_e, L, φ_e), the boundary and initial sections (``SceneSections``)."""
+
     shape = "erodible"
 
-    height: float
-    base_length: float
-    flank_angle: float
-    layer_thickness: float
-    layer_length: float
-    layer_end_angle: float
-    mesh_size: float
-    surface_mesh_size: float | None
-    mesh_file: Path | None
-    bed_condition: str
-    mu_bed: float
-    mu_wall: float
-    velocity: str = "rest"
-    surface_speed: float = 0.0
-
-    @classmethod
-    def from_config(cls, cfg) -> ErodibleScene:
-        g, b = cfg.geometry, cfg.boundary
-        return cls(g.height, g.base_length, g.flank_angle, g.layer_thickness, g.layer_length,
-                   g.layer_end_angle, g.mesh_size, g.surface_mesh_size, g.mesh_file, b.bed_condition, b.mu_bed,
-                   b.mu_wall, cfg.initial.velocity, cfg.initial.surface_speed)
-
     def regions(self):
-        return erodible_regions(self.height, self.base_length, self.flank_angle,
-                                self.layer_thickness, self.layer_length, self.layer_end_angle)
+        g = self.geometry
+        return erodible_regions(g.height, g.base_length, g.flank_angle, g.layer_thickness,
+                                g.layer_length, g.layer_end_angle)
 
     def mesh(self, comm) -> TaggedMesh:
-        if self.mesh_file:
-            return read_msh(comm, self.mesh_file)
+        g = self.geometry
+        if g.mesh_file:
+            return read_msh(comm, g.mesh_file)
         regions = self.regions() if comm.rank == 0 else None
-        return mesh_regions(comm, regions, self.mesh_size, self.surface_mesh_size)
+        return mesh_regions(comm, regions, g.mesh_size, g.surface_mesh_size)
 
     def write_msh(self, path: Path) -> Path:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        write_regions_msh(path, self.regions(), self.mesh_size, self.surface_mesh_size)
+        write_regions_msh(path, self.regions(), self.geometry.mesh_size,
+                          self.geometry.surface_mesh_size)
         return path
 
     def boundaries(self) -> tuple[Boundary, ...]:
-        return walled_boundaries(self.bed_condition, self.mu_bed, self.mu_wall)
+        b = self.boundary
+        return walled_boundaries(b.bed_condition, b.mu_bed, b.mu_wall)
 
     def container(self, box) -> Container:
         """The layer and the mass on it in the box; the wall x = 0 (``box_wall``)."""
         (layer, _, _), (mass, _, _) = self.regions()
-        return box_container(*box, open_box_boundaries(
-            bed_boundary(BED, self.bed_condition, self.mu_bed), box_wall(self.mu_wall)), (layer, mass),
-            bed_layer=layer, front_floor=FRONT_FLOOR * self.layer_thickness)
+        return box_container(*box, open_box_boundaries(self.bed(), box_wall(self.boundary.mu_wall)),
+                             (layer, mass), bed_layer=layer,
+                             front_floor=FRONT_FLOOR * self.geometry.layer_thickness)
 
     def initial_velocity(self):
-        return initial_velocity(self.velocity, self.height + self.layer_thickness,
-                                self.surface_speed)
+        return initial_velocity(self.initial.velocity,
+                                self.geometry.height + self.geometry.layer_thickness,
+                                self.initial.surface_speed)
 
     def extent(self, x):
         """(front, maximum height): the furthest x of the nodes above 2 h_e, the highest y."""
         if not len(x):
             return -np.inf, -np.inf
-        above = x[x[:, 1] > FRONT_FLOOR * self.layer_thickness]
+        above = x[x[:, 1] > FRONT_FLOOR * self.geometry.layer_thickness]
         front = float(above[:, 0].max()) if len(above) else -np.inf
         return front, float(x[:, 1].max())

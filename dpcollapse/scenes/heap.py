@@ -21,7 +21,6 @@ from dpcollapse.scenes.base import (
     Boundary,
     BoundaryKind,
     PolygonScene,
-    bed_boundary,
     initial_velocity,
     top_extent,
 )
@@ -29,28 +28,10 @@ from dpcollapse.scenes.base import (
 
 @dataclass(frozen=True)
 class HeapScene(PolygonScene):
+    """Holds ``config.geometry.HeapGeometry`` (height, base_length, mesh sizes, mesh_file),
+    the boundary and initial sections (``SceneSections``); it starts at rest."""
+
     shape = "heap"
-
-    #: ``config.geometry.HeapGeometry``: height, base_length, mesh sizes, mesh_file
-    geometry: object
-    bed_condition: str
-    mu_bed: float
-
-    @classmethod
-    def from_config(cls, cfg) -> HeapScene:
-        return cls(cfg.geometry, cfg.boundary.bed_condition, cfg.boundary.mu_bed)
-
-    @property
-    def mesh_size(self) -> float:
-        return self.geometry.mesh_size
-
-    @property
-    def surface_mesh_size(self) -> float | None:
-        return self.geometry.surface_mesh_size
-
-    @property
-    def mesh_file(self):
-        return self.geometry.mesh_file
 
     def polygon(self):
         """CCW vertices and edge tags: bed, flank (free surface), symmetry axis."""
@@ -59,7 +40,7 @@ class HeapScene(PolygonScene):
         return points, np.array([BED, SURFACE, WALL], dtype=np.int32)
 
     def boundaries(self) -> tuple[Boundary, ...]:
-        return (bed_boundary(BED, self.bed_condition, self.mu_bed),
+        return (self.bed(),
                 Boundary(WALL, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0)),
                 Boundary(SURFACE, "surface", BoundaryKind.FREE_SURFACE))
 

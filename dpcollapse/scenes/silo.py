@@ -38,82 +38,66 @@ from dpcollapse.geometry.mesher import (
     mesh_polygon,
     write_polygon_msh,
 )
-from dpcollapse.scenes.base import Boundary, BoundaryKind, Container, bed_boundary, top_extent
+from dpcollapse.scenes.base import Boundary, BoundaryKind, Container, SceneSections, top_extent
 
 
 @dataclass(frozen=True)
-class SiloScene:
+class SiloScene(SceneSections):
+    """Holds ``config.geometry.SiloGeometry`` (W, H, the vessel's height, D, β, the cell sizes)
+    and the boundary section (``SceneSections``: the bed condition, μ_b, μ_w); it starts at
+    rest."""
+
     shape = "silo"
-
-    width: float
-    fill_height: float
-    bin_height: float
-    orifice_width: float
-    hopper_angle: float | None
-    mesh_size: float
-    orifice_mesh_size: float | None
-    bed_condition: str
-    mu_bed: float
-    mu_wall: float
-
-    @classmethod
-    def from_config(cls, cfg) -> SiloScene:
-        g, b = cfg.geometry, cfg.boundary
-        return cls(g.width, g.fill_height, g.bin_height, g.orifice_width, g.hopper_angle,
-                   g.mesh_size, g.orifice_mesh_size, b.bed_condition, b.mu_bed, b.mu_wall)
-
-    @property
-    def hopper_top(self) -> float:
-        """y_h = (W − D) / (2 tan β): where the hopper's wall meets the vertical wall (0: flat)."""
-        if self.hopper_angle is None:
-            return 0.0
-        return 0.5 * (self.width - self.orifice_width) / math.tan(math.radians(self.hopper_angle))
 
     def floor(self, x):
         """y of the vessel's bottom at x ∈ [D/2, W/2] (the hopper wall; 0 on the flat bin)."""
-        if self.hopper_angle is None:
+        g = self.geometry
+        if g.hopper_angle is None:
             return np.zeros_like(np.asarray(x, dtype=float))
-        half = 0.5 * self.orifice_width
-        return (np.asarray(x, dtype=float) - half) / math.tan(math.radians(self.hopper_angle))
+        half = 0.5 * g.orifice_width
+        return (np.asarray(x, dtype=float) - half) / math.tan(math.radians(g.hopper_angle))
 
     def polygon(self):
         """CCW vertices and edge tags of the half vessel (the module's table)."""
-        r, d, top, yh = 0.5 * self.width, 0.5 * self.orifice_width, self.bin_height, self.hopper_top
+        g = self.geometry
+        r, d, top, yh = 0.5 * g.width, 0.5 * g.orifice_width, g.bin_height, g.hopper_top
         points = np.array([[0.0, 0.0], [d, 0.0], [r, yh], [r, top], [0.0, top]])
-        bottom = WALL if self.hopper_angle is not None else BED
+        bottom = WALL if g.hopper_angle is not None else BED
         return points, np.array([ORIFICE, bottom, RIGHT, SURFACE, LEFT], dtype=np.int32)
 
     def region(self) -> np.ndarray:
         """The material at t = 0: the half vessel below y = H (convex, CCW)."""
-        r, d, h, yh = 0.5 * self.width, 0.5 * self.orifice_width, self.fill_height, self.hopper_top
+        g = self.geometry
+        r, d, h, yh = 0.5 * g.width, 0.5 * g.orifice_width, g.fill_height, g.hopper_top
         if h >= yh:
             return np.array([[0.0, 0.0], [d, 0.0], [r, yh], [r, h], [0.0, h]])
-        x = d + h * math.tan(math.radians(self.hopper_angle))
+        x = d + h * math.tan(math.radians(g.hopper_angle))
         return np.array([[0.0, 0.0], [d, 0.0], [x, h], [0.0, h]])
 
     def boundaries(self) -> tuple[Boundary, ...]:
         """The orifice (outflow), the bottom or the hopper's wall, the side wall, the open top,
         the symmetry line."""
-        wall = BoundaryKind.COULOMB if self.mu_wall > 0 else BoundaryKind.SLIP
+        mu_wall = self.boundary.mu_wall
+        wall = BoundaryKind.COULOMB if mu_wall > 0 else BoundaryKind.SLIP
         points, _ = self.polygon()
-        if self.hopper_angle is None:
-            bottom = bed_boundary(BED, self.bed_condition, self.mu_bed)
+        if self.geometry.hopper_angle is None:
+            bottom = self.bed()
         else:
             dx, dy = points[2] - points[1]
             length = math.hypot(dx, dy)
-            bottom = Boundary(WALL, "hopper", wall, (dy / length, -dx / length), friction=self.mu_wall)
+            bottom = Boundary(WALL, "hopper", wall, (dy / length, -dx / length), friction=mu_wall)
         return (Boundary(ORIFICE, "orifice", BoundaryKind.OUTFLOW, (0.0, -1.0),
-                         reference=(0.0, self.bin_height)),
+                         reference=(0.0, self.geometry.bin_height)),
                 bottom,
-                Boundary(RIGHT, "wall", wall, (1.0, 0.0), friction=self.mu_wall),
+                Boundary(RIGHT, "wall", wall, (1.0, 0.0), friction=mu_wall),
                 Boundary(SURFACE, "top", BoundaryKind.FREE_SURFACE),
                 Boundary(LEFT, "symmetry", BoundaryKind.SLIP, (-1.0, 0.0)))
 
     def size(self, cell_size: float):
         """(point, tag) → target size: the orifice's size at its centre and edge, else
         ``cell_size``."""
-        fine = min(self.orifice_mesh_size or cell_size, cell_size)
-        edge = 0.5 * self.orifice_width
+        fine = min(self.geometry.orifice_mesh_size or cell_size, cell_size)
+        edge = 0.5 * self.geometry.orifice_width
 
         def size(point, tag):
             at_orifice = abs(point[1]) < 1e-12 and point[0] <= edge * (1 + 1e-12)
@@ -127,8 +111,8 @@ class SiloScene:
             points, tags = self.polygon() if comm.rank == 0 else (None, None)
             return mesh_polygon(comm, points, tags, cell_size, size=self.size(cell_size))
 
-        return Container(mesh, self.boundaries(), (self.region(),), 0.5 * self.width,
-                         self.bin_height, floor=self.floor)
+        return Container(mesh, self.boundaries(), (self.region(),), 0.5 * self.geometry.width,
+                         self.geometry.bin_height, floor=self.floor)
 
     def mesh(self, comm) -> TaggedMesh:
         return self.container().mesh(comm, self.mesh_size)

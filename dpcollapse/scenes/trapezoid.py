@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -20,7 +19,6 @@ from dpcollapse.scenes.base import (
     Boundary,
     Container,
     PolygonScene,
-    bed_boundary,
     box_container,
     box_wall,
     initial_velocity,
@@ -41,42 +39,29 @@ def trapezoid_polygon(height: float, base_length: float, flank_angle_deg: float)
 
 @dataclass(frozen=True)
 class TrapezoidScene(PolygonScene):
+    """Holds ``config.geometry.TrapezoidGeometry`` (h0, l0, α0, mesh sizes, mesh_file), the
+    boundary and initial sections (``SceneSections``)."""
+
     shape = "trapezoid"
 
-    height: float
-    base_length: float
-    flank_angle: float
-    mesh_size: float
-    surface_mesh_size: float | None
-    mesh_file: Path | None
-    bed_condition: str
-    mu_bed: float
-    mu_wall: float
-    velocity: str = "rest"
-    surface_speed: float = 0.0
-
-    @classmethod
-    def from_config(cls, cfg) -> TrapezoidScene:
-        g, b = cfg.geometry, cfg.boundary
-        return cls(g.height, g.base_length, g.flank_angle, g.mesh_size, g.surface_mesh_size,
-                   g.mesh_file, b.bed_condition, b.mu_bed, b.mu_wall, cfg.initial.velocity,
-                   cfg.initial.surface_speed)
-
     def polygon(self):
-        return trapezoid_polygon(self.height, self.base_length, self.flank_angle)
+        g = self.geometry
+        return trapezoid_polygon(g.height, g.base_length, g.flank_angle)
 
     def boundaries(self) -> tuple[Boundary, ...]:
-        return walled_boundaries(self.bed_condition, self.mu_bed, self.mu_wall)
+        b = self.boundary
+        return walled_boundaries(b.bed_condition, b.mu_bed, b.mu_wall)
 
     def container(self, box) -> Container:
         """The trapezoid in the box (two-phase model): the bed y = 0, the wall x = 0
         (``box_wall``)."""
         region = np.asarray(self.polygon()[0], dtype=float)   # convex, counter-clockwise
-        return box_container(*box, open_box_boundaries(
-            bed_boundary(BED, self.bed_condition, self.mu_bed), box_wall(self.mu_wall)), (region,))
+        return box_container(*box, open_box_boundaries(self.bed(), box_wall(self.boundary.mu_wall)),
+                             (region,))
 
     def initial_velocity(self):
-        return initial_velocity(self.velocity, self.height, self.surface_speed)
+        return initial_velocity(self.initial.velocity, self.geometry.height,
+                                self.initial.surface_speed)
 
     def extent(self, x):
         return top_extent(x)

@@ -9,7 +9,7 @@ from mpi4py import MPI
 
 from dpcollapse.io.diagnostics import read_diagnostics
 from dpcollapse.loop import Events
-from dpcollapse.models.two_phase.adaptive import REFINED
+from dpcollapse.domain.adaptive_box import REFINED
 from tests.helpers import paraview_summaries, simulation
 
 CONFIG = "column_eulerian_a0.5.yaml"

@@ -120,9 +120,10 @@ def test_moving_domain_counts_the_landings_of_accepted_moves_only(monkeypatch):
 
     from dpcollapse.domain import moving
 
-    monkeypatch.setattr(moving, "retag_landed", lambda tagged: "retagged")
+    monkeypatch.setattr(moving, "retag_bed", lambda tagged, bed_height: "retagged")
     landed = [2, 3, 0, 1]
-    disc = SimpleNamespace(motion=SimpleNamespace(move=lambda dt: (None, landed.pop(0))),
+    disc = SimpleNamespace(motion=SimpleNamespace(move=lambda dt: (None, landed.pop(0), 0),
+                                                  bed_height=None),
                            tagged=None, mesh=SimpleNamespace(geometry=SimpleNamespace(x=np.zeros(3))))
     domain = moving.MovingDomain(30.0, 0.01)
     assert domain.counted_events == ("landings", "surgeries", "surgery_area_change")

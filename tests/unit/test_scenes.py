@@ -14,7 +14,7 @@ from dpcollapse.cli import main
 from dpcollapse.config import load_config
 from dpcollapse.geometry.mesher import BED, DOMAIN, LEFT, RIGHT, SURFACE, WALL, read_msh
 from dpcollapse.scenes.base import Boundary, BoundaryKind
-from dpcollapse.scenes.layer import LayerScene
+from dpcollapse.scenes.periodic_layer import LayerScene
 from dpcollapse.scenes.registry import scene, scene_classes
 from dpcollapse.scenes.trapezoid import TrapezoidScene
 from tests.helpers import ROOT
@@ -150,7 +150,7 @@ def _model_specific_names() -> set[str]:
                     declared = vars(obj)
                     names.update(declared.get("extra_measures", ()), declared.get("counted_events", ()))
     from dpcollapse.models.two_phase.adapter import BIN_MEASURES
-    from dpcollapse.models.two_phase.layer import MEASURES as LAYER_MEASURES
+    from dpcollapse.models.two_phase.erodible_layer import MEASURES as LAYER_MEASURES
 
     return names | set(BIN_MEASURES) | set(LAYER_MEASURES)
 

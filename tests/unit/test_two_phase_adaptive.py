@@ -1,4 +1,4 @@
-"""The interface-adaptive mesh of the two-phase box (``models.two_phase.adaptive``): the size
+"""The interface-adaptive mesh of the two-phase box (``domain.adaptive_box``): the size
 field by hand, the gmsh box (sides tagged, fine cells over the granular region, coarse ones far
 away), the uniform box kept for absent keys, and the config's one-line errors."""
 
@@ -11,7 +11,7 @@ from dpcollapse.config import load_config
 from dpcollapse.errors import ConfigError
 from dpcollapse.geometry.mesher import BED, LEFT, RIGHT, SURFACE
 from dpcollapse.models.two_phase.adapter import TwoPhaseFactory, is_adaptive
-from dpcollapse.models.two_phase.adaptive import SizeField, adaptive_box, equivalent_size
+from dpcollapse.domain.adaptive_box import SizeField, adaptive_box, equivalent_size
 from dpcollapse.models.two_phase.fraction import owned_triangles
 from tests.helpers import ROOT
 
@@ -81,7 +81,7 @@ def test_a_box_mesher_that_never_returns_is_a_mesh_failure(tmp_path):
         import time
         import numpy as np
         from mpi4py import MPI
-        from dpcollapse.models.two_phase import adaptive
+        from dpcollapse.domain import adaptive_box as adaptive
         adaptive._build_box_model = lambda *args, **kwargs: time.sleep(3600)
         size = adaptive.SizeField(0.01, 0.05, band=0.04, grading=0.5)
         adaptive.adaptive_box(MPI.COMM_WORLD, 0.4, 0.2, size, np.array([[0.1, 0.05]]))

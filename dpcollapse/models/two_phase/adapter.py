@@ -32,18 +32,18 @@ from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.domain.fixed import FixedDomain
-from dpcollapse.geometry.layer import structured_rectangle
+from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
 from dpcollapse.io.law_fields import LawFields
 from dpcollapse.models.base import DiscretizationDefaults
 from dpcollapse.models.stokes.regularized import picard_settings
 from dpcollapse.models.stokes.state import FlowParameters
-from dpcollapse.models.two_phase.adaptive import AdaptiveBox, SizeField, equivalent_size
+from dpcollapse.domain.adaptive_box import AdaptiveBox, SizeField, equivalent_size
 from dpcollapse.models.two_phase.flow import LightFluid, TwoPhaseFlow
 from dpcollapse.models.two_phase.fraction import owned_triangles
-from dpcollapse.models.two_phase.layer import MEASURES as LAYER_MEASURES
-from dpcollapse.models.two_phase.layer import LayerTracer
+from dpcollapse.models.two_phase.erodible_layer import MEASURES as LAYER_MEASURES
+from dpcollapse.models.two_phase.erodible_layer import LayerTracer
 from dpcollapse.models.two_phase.overlap import union_fraction
 from dpcollapse.models.two_phase.remap import strip_overlaps
 from dpcollapse.rheology.choice import law_from_material
@@ -235,7 +235,7 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
         the haze of c that the light fluid's circulation carries is left out, measured to
         hold 97 % of the mixture's energy once the deposit stops), gravity's moment
         ∫ c ρ f·x, area ∫ c, max speed of the granular cells, bounds of c; on the erodible
-        layer the layer's measures (``layer.LayerTracer.measures``)."""
+        layer the layer's measures (``erodible_layer.LayerTracer.measures``)."""
         c = self.fraction.c.x.array[self._cells]
         granular = c > self.threshold
         self._granular.x.array[:] = (self.fraction.c.x.array > self.threshold).astype(float)

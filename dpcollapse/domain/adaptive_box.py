@@ -11,13 +11,15 @@ band and g = ``model.refine_grading``::
 
 gmsh meshes the box [0, L] × [0, H] (Frontal-Delaunay) with h as its background field, read
 from a structured background grid of spacing min(h_max, 2 h_min) (a list-based post-processing
-view, the ``PostView`` field). The sides are tagged as the uniform box (``adapter.box_mesh``).
+view, the ``PostView`` field). The sides are tagged as the uniform box
+(``models.two_phase.adapter.box_mesh``).
 
 ``AdaptiveBox`` is the domain the loop asks (``domain.base.Domain``): it never moves; it asks
 for a remesh when a granular cell is coarser than ``REFINED`` × h_min (the phase reached the
 graded zone: the band is b − the distance the phase moved since the last rebuild) or every
 ``model.remesh_every`` steps (0: only then). The loop (``simulation._remesh``) carries u and p
-by interpolation and c (and c_L) by the exact conservative remap (``remap``).
+by interpolation and c (and c_L) by the exact conservative remap
+(``models.two_phase.remap``).
 """
 
 from __future__ import annotations
@@ -32,8 +34,8 @@ from dpcollapse import compat
 from dpcollapse.domain.fixed import FixedDomain
 from dpcollapse.geometry.mesher import (BED, DOMAIN, LEFT, RIGHT, SURFACE, TAG_NAMES, TaggedMesh,
                                         generate_bounded, gmsh_session)
-from dpcollapse.models.two_phase.fraction import owned_triangles
-from dpcollapse.models.two_phase.remap import triangle_areas
+from dpcollapse.ale.quality import signed_areas
+from dpcollapse.geometry.regions import cell_triangles as owned_triangles
 
 #: a granular cell larger than this many h_min (equilateral side of its area) triggers a remesh
 REFINED = 1.5
@@ -41,7 +43,7 @@ REFINED = 1.5
 
 def equivalent_size(triangles: np.ndarray) -> np.ndarray:
     """The side of the equilateral triangle of each triangle's area [m]."""
-    return np.sqrt(4.0 * triangle_areas(triangles) / math.sqrt(3.0))
+    return np.sqrt(4.0 * (0.5 * np.abs(signed_areas(triangles))) / math.sqrt(3.0))
 
 
 class SizeField:

@@ -1,18 +1,19 @@
 """A layer of thickness h on an inclined plane, periodic in x (seed 000, case a).
 
-Slope coordinates: x along the bed, y normal to it; the rectangle [0, L] × [0, h] with a
-structured triangulation, so the nodes on x = 0 and x = L match for the periodic
-constraint. Facets: bed (y = 0), free surface (y = h), periodic sides LEFT (x = 0) and
-RIGHT (x = L).
+[0, L] × [0, h] in slope coordinates: the bed y = 0 (no slip or Coulomb friction), the
+free surface y = h, and the periodic sides x = 0 (master) and x = L (slave, shifted by
+(−L, 0) onto the master). A fixed domain, in structured triangles so that the nodes on
+x = 0 and x = L match for the periodic constraint.
 """
 
 from __future__ import annotations
 
-import numpy as np
-from dolfinx import mesh as dmesh
+from dataclasses import dataclass
+from pathlib import Path
+
 from mpi4py import MPI
 
-from dpcollapse import compat
+from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.geometry.mesher import (
     BED,
     DOMAIN,
@@ -22,6 +23,14 @@ from dpcollapse.geometry.mesher import (
     TAG_NAMES,
     TaggedMesh,
     gmsh_session,
+    read_msh,
+)
+from dpcollapse.scenes.base import (
+    Boundary,
+    BoundaryKind,
+    SceneSections,
+    initial_velocity,
+    top_extent,
 )
 
 
@@ -30,30 +39,6 @@ def layer_mesh(comm: MPI.Comm, length: float, thickness: float, mesh_size: float
     nx = max(1, round(length / mesh_size))
     ny = max(1, round(thickness / mesh_size))
     return structured_rectangle(comm, length, thickness, nx, ny)
-
-
-def structured_rectangle(comm: MPI.Comm, length: float, height: float, nx: int, ny: int) -> TaggedMesh:
-    """[0, length] × [0, height] in nx × ny squares cut into triangles, its sides tagged BED
-    (y = 0), SURFACE (y = height), LEFT (x = 0) and RIGHT (x = length), its cells DOMAIN."""
-    mesh = compat.create_rectangle(comm, (0.0, 0.0), (length, height), (nx, ny))
-    fdim = mesh.topology.dim - 1
-    tol = 1e-12 * max(length, height)
-    markers = ((BED, lambda x: np.abs(x[1]) < tol),
-               (SURFACE, lambda x: np.abs(x[1] - height) < tol),
-               (LEFT, lambda x: np.abs(x[0]) < tol),
-               (RIGHT, lambda x: np.abs(x[0] - length) < tol))
-    indices, values = [], []
-    for tag, where in markers:
-        facets = dmesh.locate_entities_boundary(mesh, fdim, where)
-        indices.append(facets)
-        values.append(np.full(len(facets), tag, dtype=np.int32))
-    indices = np.concatenate(indices)
-    values = np.concatenate(values)
-    indices, first = np.unique(indices, return_index=True)  # corner facets: keep one tag
-    mesh.topology.create_connectivity(fdim, mesh.topology.dim)
-    cells = np.arange(compat.num_owned_cells(mesh), dtype=np.int32)
-    return TaggedMesh(mesh, compat.meshtags(mesh, fdim, indices, values[first]),
-                      compat.meshtags(mesh, fdim + 1, cells, np.full(len(cells), DOMAIN)))
 
 
 def write_layer_msh(path, length: float, thickness: float, mesh_size: float) -> None:
@@ -80,3 +65,38 @@ def write_layer_msh(path, length: float, thickness: float, mesh_size: float) -> 
         gmsh.model.setPhysicalName(2, DOMAIN, "granular_mass")
         gmsh.model.mesh.generate(2)
         gmsh.write(str(path))
+
+
+@dataclass(frozen=True)
+class LayerScene(SceneSections):
+    """Holds ``config.geometry.LayerGeometry`` (thickness ``height`` h, period
+    ``base_length`` L), the boundary and initial sections (``SceneSections``)."""
+
+    shape = "layer"
+
+    def mesh(self, comm) -> TaggedMesh:
+        g = self.geometry
+        if g.mesh_file:
+            return read_msh(comm, g.mesh_file)
+        return layer_mesh(comm, g.base_length, g.height, g.mesh_size)
+
+    def boundaries(self) -> tuple[Boundary, ...]:
+        return (self.bed(),
+                Boundary(SURFACE, "surface", BoundaryKind.FREE_SURFACE),
+                Boundary(LEFT, "left", BoundaryKind.PERIODIC, (-1.0, 0.0)),
+                Boundary(RIGHT, "right", BoundaryKind.PERIODIC, (1.0, 0.0),
+                         translation=(-self.geometry.base_length, 0.0)))
+
+    def initial_velocity(self):
+        return initial_velocity(self.initial.velocity, self.geometry.height,
+                                self.initial.surface_speed)
+
+    def extent(self, x):
+        return top_extent(x)
+
+    def write_msh(self, path: Path) -> Path:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        g = self.geometry
+        write_layer_msh(path, g.base_length, g.height, g.mesh_size)
+        return path
