@@ -61,7 +61,7 @@ import numpy as np
 
 from dpcollapse.errors import ConfigError, DpcollapseError, Interrupted
 
-log = logging.getLogger("dpcollapse.studies.bench")
+log = logging.getLogger("studies.bench")
 
 #: Timed repeats (after one warm-up) of the reference linear solve; the median is used.
 REPEATS = 5
