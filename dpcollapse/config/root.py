@@ -139,9 +139,6 @@ class Config(_Section):
         if self.numerics.linear_solver == "iterative":
             raise ConfigError(f"numerics.linear_solver = 'iterative': not available with {first}; "
                               f"use mumps or superlu_dist")
-        if self.numerics.remesh_conserve_area:
-            raise ConfigError(f"numerics.remesh_conserve_area = true: puts back the plane area, "
-                              f"not the volume 2 pi r dA; must be false with {first}")
 
     def _two_phase(self) -> None:
         """The fixed box must contain the column; the rest is refused (one line each)."""
