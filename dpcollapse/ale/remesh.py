@@ -26,6 +26,7 @@ from dpcollapse.geometry.boundary_loops import BoundaryLoops
 from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, boundary_edges, mesh_polygon
 from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, chain_loops, clip_right,
                                          offset_run, polygon_is_simple, remove_spikes, resample,
+                                         signed_area, signed_volume,
                                          where_it_crosses, untangle)
 from dpcollapse.geometry.surgery import Surgery, close_small_holes, operate, surgery_needed
 from dpcollapse.scenes.base import thickness_front
@@ -111,7 +112,8 @@ def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0) -> Bounda
 def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float | None,
                   max_area_change: float, trim_thickness: float = 0.0,
                   conserve_area: bool = False, surgery: bool = False,
-                  surgeries: list | None = None) -> tuple[TaggedMesh, float, int]:
+                  surgeries: list | None = None,
+                  axisymmetric: bool = False) -> tuple[TaggedMesh, float, int]:
     """A new mesh of the current domain; returns (mesh, polygon area change, #vertices).
 
     ``trim_thickness`` [m] > 0 trims a front film thinner than it (``repair_polygon``);
@@ -119,14 +121,17 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
     changed by moving the free surface's interior vertices along their normal by one distance
     (``polygon.offset_run``; of order ΔA / surface length). ``surgery``: contacts of the
     free surface with the bed or the mass are operated on first (``geometry.surgery``); each
-    surgery done is appended to ``surgeries`` (every rank gets it)."""
+    surgery done is appended to ``surgeries`` (every rank gets it). ``axisymmetric``: the
+    measure put back and returned is the volume of the body of revolution about x = 0,
+    2π∫∫ x dA (``polygon.signed_volume``), instead of the area."""
     comm = tagged.mesh.comm
     all_edges, all_tags = boundary_edges(tagged)
+    measure = signed_volume if axisymmetric else signed_area
 
     def new_boundary():       # rank 0; its failure (a ValueError) is every rank's
         loops = chain_loops(all_edges, all_tags)
         outer, holes = loops[0], loops[1:]
-        area_before = outer.area - sum(abs(h.area) for h in holes)
+        area_before = measure(outer.points) - sum(abs(measure(h.points)) for h in holes)
         done = operate(outer, mesh_size, holes) if surgery else None
         if done is not None:
             outer, holes = done.outer, done.holes
@@ -144,15 +149,15 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
 
         poly, _ = resample(repair_polygon(outer, trim_thickness), target, max_area_change)
         holes = [resample(h, target, max_area_change)[0] for h in holes]
-        hole_area = sum(abs(h.area) for h in holes)
+        hole_area = sum(abs(measure(h.points)) for h in holes)
         points, tags = poly.points, poly.edge_tags
         if conserve_area:
             # vertices on the bed y = 0 (a landed nose's underside) stay on it
-            moved = offset_run(points, tags, SURFACE, area_before + hole_area - poly.area,
-                               movable=points[:, 1] > 0)
+            moved = offset_run(points, tags, SURFACE, area_before + hole_area - measure(points),
+                               movable=points[:, 1] > 0, measure=measure)
             if polygon_is_simple(moved):
                 points = moved
-        area_after = BoundaryPolygon(points, tags).area - hole_area
+        area_after = measure(points) - hole_area
         hole_loops = [(h.points, h.edge_tags) for h in holes]
         return points, tags, hole_loops, area_after - area_before, done
 

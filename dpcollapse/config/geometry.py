@@ -39,6 +39,12 @@ def _mesh_file(what: str) -> Any:
               "(relative paths resolve against the config file's folder)")
 
 
+def _symmetry() -> Any:
+    return _f("planar", "", "Coordinates of the 2D model: planar (x, y, per unit depth), or "
+              "axisymmetric (x = r >= 0, y = z: the body of revolution about the axis x = 0, "
+              "measure 2 pi r; stokes model, regularized method, flat bed)")
+
+
 class _Geometry(_Section):
     """Checks shared by the geometry classes (each declares its own keys, in file order).
 
@@ -53,6 +59,11 @@ class _Geometry(_Section):
     def footprint(self) -> tuple[float, float]:
         """(length, height) [m] of the initial material from the wall: what a box must hold."""
         return self.base_length, self.height
+
+    @property
+    def coordinates(self) -> str:
+        """``symmetry`` of a scene that declares it (the column), else planar."""
+        return getattr(self, "symmetry", "planar")
 
     @field_validator("mesh_file", mode="after", check_fields=False)
     @classmethod
@@ -160,6 +171,7 @@ class ColumnGeometry(_Geometry):
     models: ClassVar[tuple[str, ...]] = ("stokes", "savage_hutter", "two_phase")
 
     shape: Literal["column"] = _f("column", "", "The rectangular column")
+    symmetry: Literal["planar", "axisymmetric"] = _symmetry()
     height: Number = _f(0.14, "m", "Initial height H0 of the column", gt=0)
     base_length: Number = _f(0.14, "m", "Half-width L0: from the symmetry wall to the front", gt=0)
     bed_angle: Number = _bed_angle()
@@ -178,6 +190,10 @@ class ColumnGeometry(_Geometry):
         return self.height / self.base_length
 
     def describe(self) -> str:
+        if self.symmetry == "axisymmetric":
+            volume = math.pi * self.base_length**2 * self.height
+            return (f"cylindrical column: height {self.height:g} m, radius {self.base_length:g} m, "
+                    f"aspect ratio {self.aspect_ratio:.3g}, volume {volume:.4g} m^3")
         return (f"column: height {self.height:g} m, half-width {self.base_length:g} m, "
                 f"aspect ratio {self.aspect_ratio:.3g}, area {self.area:.4f} m^2")
 

@@ -84,6 +84,8 @@ class Config(_Section):
             self._two_phase()
         if self.model.name == "stokes":
             self._moving_mesh()
+        if g.coordinates == "axisymmetric":
+            self._axisymmetric()
         if g.periodic and self.numerics.ale:
             raise ConfigError(f"numerics.ale = true: a periodic domain is fixed; must be false "
                               f"with geometry.shape = {g.shape}")
@@ -112,6 +114,31 @@ class Config(_Section):
         """The mass's mesh must fit the cell limit and the machine (``geometry.mesh_size`` =
         1e-5 m asked gmsh for about 7e8 triangles): ``config.sizes``."""
         refuse_too_large(first_mesh(self))
+
+    def _axisymmetric(self) -> None:
+        """What the axisymmetric coordinates (``geometry.symmetry``) support today: the moving
+        mesh's regularized flow (Picard or Newton) of a body of revolution on a flat bed, the
+        axis x = 0 a frictionless symmetry side."""
+        first = "geometry.symmetry = 'axisymmetric'"
+        if self.model.name != "stokes":
+            raise ConfigError(f"{first}: only with model.name = stokes (got {self.model.name}); "
+                              f"use geometry.symmetry = planar")
+        if self.numerics.method != "regularized":
+            raise ConfigError(f"{first}: only with numerics.method = regularized (got "
+                              f"{self.numerics.method}: its multipliers have no hoop component)")
+        if self.geometry.bed_angle != 0:
+            raise ConfigError(f"geometry.bed_angle = {_fmt(self.geometry.bed_angle)}: must be 0 "
+                              f"with {first} (an inclined bed breaks the symmetry)")
+        b = self.boundary
+        if b.channel_width is not None:
+            raise ConfigError(f"boundary.channel_width = {_fmt(b.channel_width)}: side-wall "
+                              f"friction has no meaning with {first}; must be null")
+        if b.surface_tension > 0:
+            raise ConfigError(f"boundary.surface_tension = {_fmt(b.surface_tension)}: must be 0 "
+                              f"with {first} (the curvature has no azimuthal part)")
+        if self.numerics.linear_solver == "iterative":
+            raise ConfigError(f"numerics.linear_solver = 'iterative': not available with {first}; "
+                              f"use mumps or superlu_dist")
 
     def _two_phase(self) -> None:
         """The fixed box must contain the column; the rest is refused (one line each)."""

@@ -65,7 +65,8 @@ def make_domain(cfg) -> Domain:
         return MovingDomain(n.remesh_min_angle, cfg.geometry.mesh_size,
                             cfg.geometry.surface_mesh_size,
                             n.remesh_film_trim * cfg.geometry.mesh_size, n.remesh_conserve_area,
-                            n.remesh_surgery)
+                            n.remesh_surgery,
+                            axisymmetric=cfg.geometry.coordinates == "axisymmetric")
     from dpcollapse.domain.fixed import FixedDomain
 
     return FixedDomain()

@@ -63,8 +63,11 @@ class MovingDomain:
 
     def __init__(self, remesh_min_angle: float, mesh_size: float,
                  surface_mesh_size: float | None = None, trim_thickness: float = 0.0,
-                 conserve_area: bool = False, surgery: bool = False):
+                 conserve_area: bool = False, surgery: bool = False,
+                 axisymmetric: bool = False):
         self.remesh_min_angle = remesh_min_angle
+        #: geometry.symmetry axisymmetric: a remesh puts back the body's volume, not the area
+        self.axisymmetric = axisymmetric
         self.surgery = surgery
         #: the chained boundary of the current mesh, for the contact check of every step
         self._boundary_loops = BoundaryLoops()
@@ -179,7 +182,8 @@ class MovingDomain:
         try:
             new, _, nverts = remesh_regions(tagged, self.mesh_size, self.surface_mesh_size,
                                             REMESH_AREA_TOLERANCE * area0, self.trim_thickness,
-                                            self.conserve_area, self.surgery, self.surgeries)
+                                            self.conserve_area, self.surgery, self.surgeries,
+                                            axisymmetric=self.axisymmetric)
         except ValueError as exc:   # the boundary is no longer one closed loop
             raise MeshError(f"mesh degenerate: cannot remesh, {exc}") from exc
         reason = _below_floor(quality(new.mesh)["min_angle"])

@@ -39,18 +39,21 @@ log = logging.getLogger(__name__)
 def remesh_regions(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float | None,
                    max_area_change: float, trim_thickness: float = 0.0,
                    conserve_area: bool = False, surgery: bool = False,
-                   surgeries: list | None = None) -> tuple[TaggedMesh, float, int]:
+                   surgeries: list | None = None,
+                   axisymmetric: bool = False) -> tuple[TaggedMesh, float, int]:
     """A new mesh of the current domain with its cell tags: (mesh, polygon area change,
     number of boundary vertices); see the module docstring. With one region the front
     film trim, the surgery of contacts (``surgery``; each one done appended to
     ``surgeries``) and the area restoration of ``ale.remesh.remesh_domain`` apply; with two
-    the boundary is untangled but not trimmed nor operated on."""
+    the boundary is untangled but not trimmed nor operated on. ``axisymmetric``: the volume of
+    the body of revolution is what is put back (``remesh_domain``)."""
     comm = tagged.mesh.comm
     field = gather_regions(tagged)
     tags = None if field is None else np.rint(field.values[:, 0, 0]).astype(np.int32)
     if tags is None or len(np.unique(tags)) < 2:
         new, d_area, nverts = remesh_domain(tagged, mesh_size, surface_mesh_size, max_area_change,
-                                            trim_thickness, conserve_area, surgery, surgeries)
+                                            trim_thickness, conserve_area, surgery, surgeries,
+                                            axisymmetric=axisymmetric)
         return (new if field is None else carry_regions(tagged, new, field)), d_area, nverts
     poly = boundary_polygon(tagged)
     regions, d_area, nverts = None, 0.0, 0
@@ -63,7 +66,8 @@ def remesh_regions(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: floa
         log.warning("remesh: the material regions do not meet along one interface between two "
                     "boundary vertices; their cells are re-tagged by centroid (staircase)")
         new, d_area, nverts = remesh_domain(tagged, mesh_size, surface_mesh_size, max_area_change,
-                                            trim_thickness, conserve_area)
+                                            trim_thickness, conserve_area,
+                                            axisymmetric=axisymmetric)
         return carry_regions(tagged, new, field), d_area, nverts
     return (mesh_regions(comm, regions if comm.rank == 0 else None, mesh_size, surface_mesh_size),
             d_area, nverts)

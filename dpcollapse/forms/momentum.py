@@ -12,14 +12,17 @@ test pair (v, q) in V × M::
 
 Each term is a pure function returning a UFL form so it can be assembled and tested alone.
 The cell measure ``dx`` is an argument (default ``ufl.dx``) so that the solver can fix the
-quadrature degree of the nonlinear terms (``numerics.quadrature_degree``).
+quadrature degree of the nonlinear terms (``numerics.quadrature_degree``). In axisymmetric
+coordinates (``geometry.symmetry``) ``dx`` is the weighted measure 2πr dx and the terms with D
+and div take ``coordinates`` (``rheology.coordinates``): D(u) with the hoop rate u_r/r and
+∇·u = ∂_r u_r + u_r/r + ∂_z u_z.
 """
 
 from __future__ import annotations
 
 import ufl
 
-from dpcollapse.rheology.kinematics import strain_rate
+from dpcollapse.rheology.coordinates import PLANAR
 
 
 def inertia(rho, dt, u, v, dx=ufl.dx):
@@ -37,19 +40,20 @@ def convection(rho, u_iter, w, u, v, dx=ufl.dx):
     return rho * ufl.inner(ufl.grad(u) * (u_iter - w), v) * dx
 
 
-def viscoplastic(secant_viscosity, u, v, dx=ufl.dx):
+def viscoplastic(secant_viscosity, u, v, dx=ufl.dx, coordinates=PLANAR):
     """∫ ν_eff D(u):D(v) dx with ν_eff = 2η + κ/√(|D(uᵏ)|²+ε²) frozen at the iterate."""
-    return secant_viscosity * ufl.inner(strain_rate(u), strain_rate(v)) * dx
+    D = coordinates.strain_rate
+    return secant_viscosity * ufl.inner(D(u), D(v)) * dx
 
 
-def pressure(p, v, dx=ufl.dx):
+def pressure(p, v, dx=ufl.dx, coordinates=PLANAR):
     """−∫ p div v dx."""
-    return -p * ufl.div(v) * dx
+    return -p * coordinates.divergence(v) * dx
 
 
-def incompressibility(q, u, dx=ufl.dx):
+def incompressibility(q, u, dx=ufl.dx, coordinates=PLANAR):
     """−∫ q div u dx (sign chosen so the saddle-point matrix is symmetric)."""
-    return -q * ufl.div(u) * dx
+    return -q * coordinates.divergence(u) * dx
 
 
 def gravity(rho, body_force, v, dx=ufl.dx):

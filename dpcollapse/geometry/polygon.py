@@ -20,7 +20,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 __all__ = ["BoundaryPolygon", "chain_boundary", "chain_loops", "resample", "polygon_is_simple",
-           "segments_intersect", "untangle", "remove_spikes", "clip_half_plane", "clip_right", "offset_run"]
+           "segments_intersect", "untangle", "remove_spikes", "clip_half_plane", "clip_right", "offset_run", "signed_area", "signed_volume"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,6 +90,21 @@ class BoundaryPolygon:
 def _signed_area(points: np.ndarray) -> float:
     x, y = points[:, 0], points[:, 1]
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def signed_area(points: np.ndarray) -> float:
+    """A = ∫∫ dx dy of a polygon (shoelace; positive counter-clockwise) [m²]."""
+    return _signed_area(np.asarray(points, dtype=float))
+
+
+def signed_volume(points: np.ndarray) -> float:
+    """V = 2π ∫∫ x dx dy [m³]: the volume of the body of revolution of a polygon in x ≥ 0
+    about the axis x = 0 (Pappus; the first moment (1/6) Σ (x_i + x_{i+1}) c_i with
+    c_i = x_i y_{i+1} − x_{i+1} y_i; positive counter-clockwise)."""
+    pts = np.asarray(points, dtype=float)
+    x, y = pts[:, 0], pts[:, 1]
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    return 2.0 * np.pi * float(np.sum((x + xn) * (x * yn - xn * y))) / 6.0
 
 
 def _orient(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -382,11 +397,14 @@ def clip_right(points: np.ndarray, edge_tags: np.ndarray, x_cut: float,
 
 
 def offset_run(points: np.ndarray, edge_tags: np.ndarray, tag: int,
-               area_change: float, movable: np.ndarray | None = None) -> np.ndarray:
+               area_change: float, movable: np.ndarray | None = None,
+               measure=signed_area) -> np.ndarray:
     """Move the vertices inside the runs of edges tagged ``tag`` (both adjacent edges of
     that tag; corners stay; only where ``movable``, a boolean mask, when given) along their outward normal (the mean of the two edge normals
     of a CCW polygon) by one distance s chosen so that the signed area changes by
-    ``area_change`` (secant steps on A(s), which is quadratic in s, to round-off)."""
+    ``area_change`` (secant steps on A(s), which is quadratic in s, to round-off).
+    ``measure``: ``signed_area`` or ``signed_volume`` (the body of revolution's, cubic in s:
+    the same secant steps; ``area_change`` is then a volume)."""
     pts = np.asarray(points, dtype=float)
     tags = np.asarray(edge_tags)
     inner = (tags == tag) & (np.roll(tags, 1) == tag)        # vertex i: edges i-1 and i
@@ -396,12 +414,15 @@ def offset_run(points: np.ndarray, edge_tags: np.ndarray, tag: int,
     vn = normal + np.roll(normal, 1, axis=0)
     vn /= np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-300)
     vn[~inner if movable is None else ~(inner & movable)] = 0.0
-    area0 = _signed_area(pts)
+    area0 = measure(pts)
 
     def change(s: float) -> float:
-        return _signed_area(pts + s * vn) - area0
+        return measure(pts + s * vn) - area0
 
     length = float(np.sum(np.linalg.norm(e, axis=1)[tags == tag]))
+    if measure is not signed_area:    # the first step from the measure's own rate at s = 0
+        rate = (change(1e-9 * max(length, 1e-300)) / (1e-9 * max(length, 1e-300)))
+        length = rate if rate > 0 else length
     if not inner.any() or length == 0 or area_change == 0:
         return pts.copy()
     s0, s1 = 0.0, area_change / length

@@ -34,6 +34,8 @@ class Rheology(Protocol):
     #: The grain size the law carries [m] (0 when none): films thinner than a few of it are
     #: not flowing material (the thickness front).
     grain_scale: float
+    #: ``rheology.coordinates``: planar or axisymmetric (D(u) and |D| with the hoop rate u_r/r)
+    coordinates: object
 
     def yield_stress(self, p):
         """κ(p) [Pa] as UFL (Frobenius convention: √2 times the simple-shear yield stress)."""

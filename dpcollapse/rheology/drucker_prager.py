@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass
 from typing import ClassVar
 
+from dpcollapse.rheology.coordinates import PLANAR, Planar
 from dpcollapse.rheology.kinematics import frobenius_norm_sq, positive_part, regularized_secant, strain_rate
 
 __all__ = ["DruckerPrager", "frobenius_norm_sq", "positive_part", "strain_rate"]
@@ -30,6 +31,8 @@ class DruckerPrager:
     viscosity: float
     friction_coefficient: float
     cohesion: float = 0.0
+    #: planar or axisymmetric (``rheology.coordinates``): D(u) and |D| with the hoop rate
+    coordinates: Planar = PLANAR
 
     #: no cap: S = 2η + κ/|D|_ε is bounded below by 2η, not above
     viscosity_cap: ClassVar[None] = None
@@ -67,11 +70,12 @@ class DruckerPrager:
 
     def secant_viscosity(self, u, p, epsilon):
         """The coefficient of D(v) in the Picard linearization: 2η + κ(p)/√(|D(u)|²+ε²)."""
-        return regularized_secant(self.yield_stress(p), self.viscosity, u, epsilon)
+        return regularized_secant(self.yield_stress(p), self.viscosity, u, epsilon,
+                                  coordinates=self.coordinates)
 
     def deviatoric_stress(self, u, p, epsilon):
         """σ'(u, p) of the regularized law [Pa]."""
-        return self.secant_viscosity(u, p, epsilon) * strain_rate(u)
+        return self.secant_viscosity(u, p, epsilon) * self.coordinates.strain_rate(u)
 
     def diagnostic_fields(self, u, p, epsilon) -> dict:
         """None beyond the common ones."""

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import ufl
 
+from dpcollapse.rheology.coordinates import PLANAR
+
 
 def positive_part(x):
     """[x]_+ = max(x, 0) as UFL."""
@@ -24,10 +26,11 @@ def frobenius_norm_sq(tensor):
     return ufl.inner(tensor, tensor)
 
 
-def regularized_secant(yield_stress, rate_viscosity, u, epsilon, cap=None):
+def regularized_secant(yield_stress, rate_viscosity, u, epsilon, cap=None, coordinates=PLANAR):
     """S = min(κ/√(|D(u)|² + ε²) + 2η, 2η_max) [Pa s]: the coefficient of D(v) in the Picard
-    linearization of σ' = κ D/|D| + 2η D (no min when ``cap`` η_max is None)."""
-    S = yield_stress / ufl.sqrt(frobenius_norm_sq(strain_rate(u)) + epsilon**2) + 2.0 * rate_viscosity
+    linearization of σ' = κ D/|D| + 2η D (no min when ``cap`` η_max is None); D(u) that of
+    ``coordinates`` (``rheology.coordinates``: with the hoop rate u_r/r when axisymmetric)."""
+    S = yield_stress / ufl.sqrt(frobenius_norm_sq(coordinates.strain_rate(u)) + epsilon**2) + 2.0 * rate_viscosity
     if cap is not None:
         S = ufl.min_value(S, 2.0 * cap)
     return S

@@ -43,7 +43,8 @@ from typing import ClassVar, Optional
 import numpy as np
 import ufl
 
-from dpcollapse.rheology.kinematics import frobenius_norm_sq, positive_part, regularized_secant, strain_rate
+from dpcollapse.rheology.coordinates import PLANAR, Planar
+from dpcollapse.rheology.kinematics import frobenius_norm_sq, positive_part, regularized_secant
 
 PRESSURE_FLOOR = 1e-10
 """Pressure [Pa] added to [p]_+ under square roots (I and the rate-dependent viscosity)."""
@@ -77,6 +78,8 @@ class MuI:
     grain_density: float
     cohesion: float = 0.0
     viscosity_cap: Optional[float] = None
+    #: planar or axisymmetric (``rheology.coordinates``): D(u), |D| and I with the hoop rate
+    coordinates: Planar = PLANAR
 
     pressure_floor: ClassVar[float] = PRESSURE_FLOOR
     #: η_μI depends on |D| and p
@@ -155,13 +158,13 @@ class MuI:
 
     def inertial_number(self, u, p, epsilon):
         """I = d √2 √(|D|²+ε²) / √(([p]_+ + PRESSURE_FLOOR)/ρ_s) as UFL (finite for p ≤ 0)."""
-        D = strain_rate(u)
+        D = self.coordinates.strain_rate(u)
         rate = SQRT2 * ufl.sqrt(frobenius_norm_sq(D) + epsilon**2)
         return self.grain_diameter * rate / self._sqrt_p_over_rho(p)
 
     def rate_viscosity(self, u, p, epsilon):
         """η_μI = (μ_2 − μ_s)[p]_+ / (√2|D|_ε + I0 √([p]_+/ρ_s)/d)  [Pa s] (uncapped)."""
-        D = strain_rate(u)
+        D = self.coordinates.strain_rate(u)
         rate = SQRT2 * ufl.sqrt(frobenius_norm_sq(D) + epsilon**2)
         return self.delta_mu * positive_part(p) / (rate + self.I0 * self._sqrt_p_over_rho(p) / self.grain_diameter)
 
@@ -176,11 +179,11 @@ class MuI:
         """Coefficient of D(v) in the Picard linearization:
         S = min(κ(p)/√(|D|²+ε²) + 2 η_μI, 2 η_max) (no min when viscosity_cap is None)."""
         return regularized_secant(self.yield_stress(p), self.rate_viscosity(u, p, epsilon), u,
-                                  epsilon, self.viscosity_cap)
+                                  epsilon, self.viscosity_cap, self.coordinates)
 
     def deviatoric_stress(self, u, p, epsilon):
         """σ'(u, p) = S(u, p) D(u) [Pa]."""
-        return self.secant_viscosity(u, p, epsilon) * strain_rate(u)
+        return self.secant_viscosity(u, p, epsilon) * self.coordinates.strain_rate(u)
 
     def diagnostic_fields(self, u, p, epsilon) -> dict:
         """The inertial number I per cell."""

@@ -26,6 +26,7 @@ from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoin
 from dpcollapse.io.law_fields import LawFields
 from dpcollapse.rheology.base import Rheology
 from dpcollapse.rheology.choice import law_from_material
+from dpcollapse.rheology.coordinates import coordinates
 from dpcollapse.scenes.base import film_threshold, thickness_front
 from dpcollapse.scenes.registry import build_mesh, scene as make_scene
 from dpcollapse.models.base import DiscretizationDefaults
@@ -40,8 +41,13 @@ FLOWING_SPEED = 1e-3
 
 def rheology(cfg: Config) -> Rheology:
     """The constitutive law of ``material`` (a :class:`~dpcollapse.rheology.base.Rheology`):
-    DruckerPrager or MuI."""
-    return law_from_material(cfg.material)
+    DruckerPrager or MuI, in the coordinates of ``geometry.symmetry``."""
+    return law_from_material(cfg.material, flow_coordinates(cfg))
+
+
+def flow_coordinates(cfg: Config):
+    """``rheology.coordinates`` of ``geometry.symmetry`` (planar, or axisymmetric: x = r)."""
+    return coordinates(cfg.geometry.coordinates)
 
 
 def flow_parameters(cfg: Config, scene=None) -> FlowParameters:
@@ -53,7 +59,7 @@ def flow_parameters(cfg: Config, scene=None) -> FlowParameters:
         density=m.density, gravity=m.gravity, bed_angle=math.radians(cfg.geometry.bed_angle),
         rheology=rheology(cfg), boundaries=scene.boundaries(), channel_width=b.channel_width,
         mu_side=b.mu_side, surface_tension=b.surface_tension,
-        surface_tension_extent=b.surface_tension_extent)
+        surface_tension_extent=b.surface_tension_extent, coordinates=flow_coordinates(cfg))
 
 
 def initial_velocity(cfg: Config):
@@ -96,10 +102,14 @@ class StokesDiscretization(DiscretizationDefaults):
         self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
                                  direct_solver(cfg), self.scene.bed_height) if cfg.numerics.ale else None
         u, p = ufl.split(self.flow.solution)
-        self._area = fem.form(1.0 * ufl.dx(domain=mesh))
-        self._kinetic = fem.form(0.5 * cfg.material.density * ufl.inner(u, u) * ufl.dx)
+        # axisymmetric: the body of revolution's volume [m³], energy [J] and moment (2πr dx);
+        # planar: per unit depth (dx)
+        coords = self.flow.params.coordinates
+        dx = coords.measure(ufl.dx, mesh)
+        self._area = fem.form(1.0 * coords.measure(ufl.dx(domain=mesh)))
+        self._kinetic = fem.form(0.5 * cfg.material.density * ufl.inner(u, u) * dx)
         f = fem.Constant(mesh, np.array(self.flow.params.body_force, dtype=compat.ScalarType))
-        self._gravity_moment = fem.form(cfg.material.density * ufl.inner(f, ufl.SpatialCoordinate(mesh)) * ufl.dx)
+        self._gravity_moment = fem.form(cfg.material.density * ufl.inner(f, ufl.SpatialCoordinate(mesh)) * dx)
         # output functions on spaces XDMF writes faithfully (P1, DG0)
         V1, S1, S0 = compat.vector_space(mesh, 1), compat.scalar_space(mesh, 1), compat.scalar_space(mesh, 0, "DG")
         self.out_velocity = fem.Function(V1, name="velocity")
@@ -111,7 +121,7 @@ class StokesDiscretization(DiscretizationDefaults):
         self._set_regions(tagged)
         # per-cell fields of the model (AL: the exact rigid zone γ̇ = 0)
         self.out_cells = [fem.Function(S0, name=name) for name in self.flow.exported_cell_fields]
-        D = ufl.sym(ufl.grad(u))
+        D = coords.strain_rate(u)    # planar: sym ∇u; axisymmetric: with the hoop rate u_r/r
         self._strain_expr = compat.expression(ufl.sqrt(ufl.inner(D, D)), S0)
         self.law = law = self.flow.params.rheology
         # fields only some laws have (μ(I): the inertial number), and the well-posed window

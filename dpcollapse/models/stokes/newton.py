@@ -122,7 +122,7 @@ class NewtonFlow(RegularizedFlow):
             dx=dx, ds=ds,
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
             side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None,
-            weak_walls=self.weak_walls())
+            weak_walls=self.weak_walls(), coordinates=p.coordinates)
         F = with_fixed_quadrature(sum(self.residual_terms.values()))
         self.residual = F
         J = jacobian(F, U, ufl.TrialFunction(self.W))

@@ -138,7 +138,8 @@ class RegularizedFlow(StokesState):
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
             side_walls=(p.channel_width, p.mu_side) if p.channel_width and p.mu_side > 0 else None,
             weak_walls=self.weak_walls(),
-            surface=self._surface_tension(ds), convection=self.settings.convection)
+            surface=self._surface_tension(ds), convection=self.settings.convection,
+            coordinates=p.coordinates)
         self.rhs_terms = rhs
         a = sum(self.terms.values())
         L = sum(rhs.values())

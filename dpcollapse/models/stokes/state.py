@@ -28,6 +28,7 @@ from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.io.checkpoint import note_not_restored
 from dpcollapse.models.stokes.history import TimeHistory
 from dpcollapse.rheology.base import Rheology
+from dpcollapse.rheology.coordinates import PLANAR, Planar
 from dpcollapse.scenes.base import SOLID, Boundary, BoundaryKind
 from dpcollapse.solvers.assembly import LinearSystem, zero_dirichlet
 from dpcollapse.transfer import CellwiseField, concatenate
@@ -46,6 +47,13 @@ class FlowParameters:
     mu_side: float = 0.0      # μ_w
     surface_tension: float = 0.0         # γ̄0 [N/m] of seed 000's local surface tension (0: off)
     surface_tension_extent: float = 3.0  # δ [free-surface nodes]
+    coordinates: Planar = PLANAR         # geometry.symmetry: planar, or axisymmetric (x = r, y = z)
+
+    def __post_init__(self):
+        law_coordinates = getattr(self.rheology, "coordinates", PLANAR)
+        if law_coordinates != self.coordinates:
+            raise ValueError(f"the law's coordinates ({law_coordinates!r}) are not the flow's "
+                             f"({self.coordinates!r})")
 
     def of_kind(self, *kinds: BoundaryKind) -> list[Boundary]:
         """The boundaries of the given kinds, in the scene's order."""
