@@ -32,6 +32,7 @@ from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.domain.fixed import FixedDomain
+from dpcollapse.fronts import profile_front
 from dpcollapse.geometry.layer import structured_rectangle
 from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
@@ -230,7 +231,8 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
     def measures(self) -> dict:
         """Mass front (furthest x of a cell with c > model.fraction_threshold; on the erodible
         layer of those above 2 h_e), thickness front (right edge of the furthest column with
-        h ≥ film_threshold; on the layer ≥ max(film_threshold, 2 h_e)), max height
+        h ≥ film_threshold, ``fronts.profile_front`` through the columns' centres; on the
+        layer ≥ max(film_threshold, 2 h_e)), max height
         max_j h_j, kinetic energy ∫ c ρ |u|²/2 over the granular cells (c > the threshold:
         the haze of c that the light fluid's circulation carries is left out, measured to
         hold 97 % of the mixture's energy once the deposit stops), gravity's moment
@@ -250,7 +252,8 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
             out = out | self._bin_measures(h)
         return out | {
             "front": self.comm.allreduce(front, op=MPI.MAX),
-            "thick_front": float((thick[-1] + 1) * self.dx_bin) if len(thick) else -math.inf,
+            "thick_front": profile_front((np.arange(self.nx) + 0.5) * self.dx_bin, h, self.thick_floor)
+            if len(thick) else -math.inf,
             "max_height": float(h.max()),
             "kinetic_energy": self.comm.allreduce(fem.assemble_scalar(self._kinetic), op=MPI.SUM),
             "gravity_moment": self.comm.allreduce(fem.assemble_scalar(self._gravity_moment), op=MPI.SUM),
