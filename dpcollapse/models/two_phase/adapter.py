@@ -116,9 +116,10 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
 
     #: h(x = 0) [m]; min and max of c; advection sub-steps of the last step
     #: and the kinetic energy ∫ c ρ |u|²/2 over every cell (the haze of c the light fluid
-    #: carries included) [J/m]; Σ_K min(c_K, 1) |∫_K ∇·u| [m²/s]
+    #: carries included) [J/m]; Σ_K min(c_K, 1) |∫_K ∇·u| [m²/s]; the material that left
+    #: through the sides other than an outflow (the open top) [m²]
     extra_measures = ("wall_height", "fraction_min", "fraction_max", "substeps",
-                      "mixture_kinetic_energy", "divergence_rate")
+                      "mixture_kinetic_energy", "divergence_rate", "escaped_area")
 
     def __init__(self, tagged: TaggedMesh, cfg, vessel: Container | None = None):
         self.cfg, self.tagged = cfg, tagged
@@ -260,6 +261,7 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
             "area": self.area(),
             "max_speed": self.comm.allreduce(float(speed.max()) if len(speed) else 0.0, op=MPI.MAX),
             "wall_height": float(h[0]),
+            "escaped_area": self.fraction.escaped_volume,
             "fraction_min": lo, "fraction_max": hi,
             "substeps": self.fraction.substeps,
             "divergence_rate": self.fraction.divergence_rate(),
@@ -291,9 +293,9 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
         return "emptied" if self.bin and measures["emptied"] else None
 
     def mass_area(self, measures: dict) -> float:
-        """The area in the vessel plus what left through an outflow side [m²]: outflow is
-        not a loss."""
-        return measures["area"] + (measures["outflow_area"] if self.bin else 0.0)
+        """The area in the vessel plus what left through an outflow side and through the
+        other sides (``escaped_area``: the open top) [m²]: what left is not a loss."""
+        return measures["area"] + measures["escaped_area"] + (measures["outflow_area"] if self.bin else 0.0)
 
     def summary_measures(self) -> dict:
         """run.json's steady discharge (a bin): the mean and relative standard deviation of Q
@@ -396,6 +398,7 @@ class TwoPhaseFactory:
     def save_checkpoint(self, path, disc: TwoPhaseDiscretization, state: dict) -> None:
         """The mesh, uⁿ, pⁿ, cⁿ and the loop state (collective; rank 0 writes); a bin's
         outflow so far and its (Δt, Q) history with the loop state."""
+        state = state | {"escaped_area": disc.fraction.escaped_volume}
         if disc.bin:
             state = state | {"outflow_area": disc.fraction.outflow_volume,
                              "discharge_history": [list(x) for x in disc._discharge]}
@@ -411,6 +414,7 @@ class TwoPhaseFactory:
                                       self.vessel)
         disc.flow.transfer(fields)
         disc.flow.restore_checkpoint(fields, state)
+        disc.fraction.escaped_volume = float(state.get("escaped_area", 0.0))
         if disc.bin:
             disc.fraction.outflow_volume = float(state.get("outflow_area", 0.0))
             disc._discharge = [tuple(x) for x in state.get("discharge_history", [])]

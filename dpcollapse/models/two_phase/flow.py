@@ -72,8 +72,10 @@ class LightFluid:
     compression_direction: str = "normal"  # of the interface compression: normal or facet
 
 
-#: the snapshot field of cⁿ⁻¹ (``model.inertia: energy``)
+#: the snapshot field of cⁿ⁻¹ (``model.inertia: energy``, ``mean``)
 PREVIOUS_FRACTION = "volume_fraction_previous"
+#: the snapshot entry of what has left the box: (outflow_volume, escaped_volume) [m²]
+LEFT_THE_BOX = "fraction_left_the_box"
 
 
 class TwoPhaseFlow(RegularizedFlow):
@@ -210,6 +212,7 @@ class TwoPhaseFlow(RegularizedFlow):
         self.fraction.c.x.array[:] = other.fraction.c.x.array
         self.fraction.previous.x.array[:] = other.fraction.previous.x.array
         self.fraction.outflow_volume = other.fraction.outflow_volume
+        self.fraction.escaped_volume = other.fraction.escaped_volume
         for name, tracer in self.tracers.items():
             tracer.c.x.array[:] = other.tracers[name].c.x.array
 
@@ -232,13 +235,24 @@ class TwoPhaseFlow(RegularizedFlow):
             fields[fraction.c.name] = gathered(fraction.c)
         if self.light.inertia != "velocity":   # cⁿ⁻¹ of the time derivative's densities
             fields[PREVIOUS_FRACTION] = gathered(self.fraction.previous)
+        fields[LEFT_THE_BOX] = (self.fraction.outflow_volume, self.fraction.escaped_volume)
+        return fields
+
+    def checkpoint_fields(self) -> dict:
+        """``snapshot``'s fields without what has left the box (a number: the checkpoint's
+        state carries it, ``adapter.TwoPhaseFactory.save_checkpoint``)."""
+        fields = super().checkpoint_fields()
+        fields.pop(LEFT_THE_BOX, None)
         return fields
 
     def transfer(self, fields: dict) -> float:
         """The state of ``snapshot`` fields: u, p interpolated (``RegularizedFlow.transfer``);
         c and the tracers by the exact conservative remap of their cell values
-        (``fraction.VolumeFraction.remap_from``: ∫ c kept to round-off)."""
-        names = {fraction.c.name for fraction in self._fractions()} | {PREVIOUS_FRACTION}
+        (``fraction.VolumeFraction.remap_from``: ∫ c kept to round-off); what has left the
+        box so far carried over (∫ c + it is the balance across an adaptive remesh)."""
+        names = {fraction.c.name for fraction in self._fractions()} | {PREVIOUS_FRACTION, LEFT_THE_BOX}
+        if LEFT_THE_BOX in fields:
+            self.fraction.outflow_volume, self.fraction.escaped_volume = fields[LEFT_THE_BOX]
         outside = super().transfer({k: v for k, v in fields.items() if k not in names})
         for fraction in self._fractions():
             field = fields.get(fraction.c.name)
