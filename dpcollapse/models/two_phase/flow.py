@@ -3,11 +3,12 @@
 (``forms.two_phase``), then the advection of c by the converged u^{n+1}
 (``fraction.VolumeFraction``, sub-cycled).
 
-    (ρ(cⁿ) u^{n+1} − √(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ)/Δt + ρ(cⁿ) (u^{n+1,k}·∇) u^{n+1} − ∇·(S(cⁿ, u^{n+1,k}, p^{n+1,k}) D(u^{n+1}))
+    (ρ(cⁿ) u^{n+1} − ½(ρ(cⁿ) + ρ(cⁿ⁻¹)) uⁿ)/Δt + ρ(cⁿ) (u^{n+1,k}·∇) u^{n+1} − ∇·(S(cⁿ, u^{n+1,k}, p^{n+1,k}) D(u^{n+1}))
         − ∇(γ S ∇·u^{n+1}) + ∇p^{n+1} = ρ(cⁿ) g,   ∇·u^{n+1} = 0;       then  c^{n+1} = A_Δt(cⁿ; u^{n+1})
 
-(``model.inertia: velocity``, the default before 2026-12-05: ρ(cⁿ) uⁿ/Δt in place of
-√(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ/Δt; ``forms.two_phase.previous_momentum``)
+(``model.inertia: mean``, the default since 2026-12-07; ``energy``, the default from
+2026-12-05: √(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ/Δt; ``velocity``, the default before: ρ(cⁿ) uⁿ/Δt;
+``forms.two_phase.previous_momentum``)
 
 with the grad-div term γ S ∇·u (``forms.two_phase.grad_div``, S the secant viscosity at
 the iterate), the convection in skew-symmetric form and the open top's backflow stabilization
@@ -68,7 +69,7 @@ class LightFluid:
     yield_weighting: str = "grains"  # κ_mix = w(c) κ(p) (forms.two_phase.yield_weight)
     grain_pressure: str = "total"  # the p of κ(p), μ(I) and the bed friction (forms.two_phase)
     cut_cell_pressure: str = "pointwise"  # that p in a cut cell: pointwise or at its centroid
-    inertia: str = "energy"  # the time derivative's densities (forms.two_phase.previous_momentum)
+    inertia: str = "mean"  # the time derivative's densities (forms.two_phase.previous_momentum)
     compression_direction: str = "normal"  # of the interface compression: normal or facet
 
 
@@ -157,8 +158,8 @@ class TwoPhaseFlow(RegularizedFlow):
         open_tags = self._tags_of(BoundaryKind.FREE_SURFACE, BoundaryKind.OUTFLOW)
         open_ds = sum((ds(t) for t in open_tags[1:]), ds(open_tags[0]))
         self.terms["convection"] = skew_convection(rho, u_k, u, v, n, dx, open_ds)
-        # the time derivative's explicit half: ρ(cⁿ) uⁿ/Δt, or √(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ/Δt
-        # (model.inertia: energy; with the skew convection the consistent ρ Du/Dt)
+        # the time derivative's explicit half: ρ(cⁿ) uⁿ/Δt, √(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ/Δt or
+        # ½(ρ(cⁿ) + ρ(cⁿ⁻¹)) uⁿ/Δt (model.inertia: velocity, energy, mean)
         if light.inertia != "velocity":
             previous = self.fraction.previous
             rho_previous = mixture(ufl.min_value(ufl.max_value(previous, 0.0), 1.0), p.density,
