@@ -22,11 +22,11 @@ from pathlib import Path
 
 import ufl
 
-import dpcollapse.forms.friction as friction
-import dpcollapse.models.two_phase.fraction as fraction
+from dpcollapse.forms import friction
+from dpcollapse.models.two_phase import fraction
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-import columns_cause  # noqa: E402
+import columns_cause
 
 LATEST = {}
 _init, _coulomb = fraction.VolumeFraction.__init__, friction.coulomb_friction
