@@ -198,7 +198,8 @@ LEGACY_DEFAULTS = {
     ("model", "yield_weighting"): "volume",       # default grains since 2026-12-04
     ("model", "grain_pressure"): "total",         # default effective since 2026-12-05
     ("model", "cut_cell_pressure"): "pointwise",  # default centroid since 2026-12-05
-    ("model", "inertia"): "velocity",             # default energy since 2026-12-05 (noon)
+    ("model", "inertia"): "velocity",             # default energy 2026-12-05 (noon), mean since
+    #                                               2026-12-07: a config saved since 12-05 has the key
     ("model", "compression_direction"): "facet",  # default normal since 2026-12-05 (evening)
 }
 

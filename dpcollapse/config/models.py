@@ -138,15 +138,15 @@ class TwoPhaseModel(_Section):
         "point; the default before). The walls' friction reads it at the wall "
         "(docs/benchmarks/2026-12-04-cut-cell-pressure.md)")
     inertia: Literal["velocity", "energy", "mean"] = _f(
-        "energy", "", "Densities of the time derivative: energy (rho(c^n) u^{n+1} - "
-        "sqrt(rho(c^n) rho(c^{n-1})) u^n)/dt (default since 2026-12-05; Guermond & Quartapelle: "
+        "mean", "", "Densities of the time derivative: energy (rho(c^n) u^{n+1} - "
+        "sqrt(rho(c^n) rho(c^{n-1})) u^n)/dt (the default from 2026-12-05 to 2026-12-07; Guermond & Quartapelle: "
         "with the skew-symmetric convection the consistent rho Du/Dt) or velocity rho(c^n) "
         "(u^{n+1} - u^n)/dt (the default before: leaves a force (1/2)(d rho/dt) u that pushes "
         "the front, runouts growing with refinement; docs/benchmarks/2026-12-05-two-phase-inertia.md) "
-        "or mean (rho(c^n) u^{n+1} - (rho(c^n) + rho(c^{n-1}))/2 u^n)/dt: the force (1/2)(d rho/dt) u "
+        "or mean (default since 2026-12-07: rho(c^n) u^{n+1} - (rho(c^n) + rho(c^{n-1}))/2 u^n)/dt: the force (1/2)(d rho/dt) u "
         "linear in the step's change of rho, which energy's geometric mean is only for small "
         "ratios (a drag on the front growing with the step: the tall columns 10 % short; "
-        "docs/benchmarks/2026-12-07-two-phase-columns-cause.md)")
+        "docs/benchmarks/2026-12-07-two-phase-columns-cause.md, 2026-12-07-two-phase-one-answer.md)")
     courant: Number = _f(
         0.4, "", "Courant number of the sub-cycled explicit advection of c (outflow of a cell per "
         "sub-step over its content)", gt=0, le=0.5)

@@ -29,6 +29,7 @@ from typing import Protocol
 
 import numpy as np
 
+from dpcollapse.fronts import front_thickness
 from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.geometry.mesher import (
     BED,
@@ -222,17 +223,12 @@ def top_extent(x: np.ndarray) -> tuple[float, float]:
     return float(x[:, 0].max()), float(x[:, 1].max())
 
 
-#: The thickness front: the furthest x where the mass is thicker than
-#: max(FILM_GRAINS · d, FILM_MESH_FRACTION · h) (d the grain diameter, h the mesh size).
-FILM_GRAINS = 3.0
-FILM_MESH_FRACTION = 0.25
-
-
 def film_threshold(grain_diameter: float, mesh_size: float) -> float:
     """Thickness [m] below which the end of a deposit counts as a film, not the front:
     max(3 d, h/4) — a few grains (a thinner layer is not a continuum), and a fraction of the
-    mesh size (a thinner layer is not resolved)."""
-    return max(FILM_GRAINS * grain_diameter, FILM_MESH_FRACTION * mesh_size)
+    mesh size (a thinner layer is not resolved): ``fronts.front_thickness``, the one stated
+    thickness of every model's thickness front."""
+    return front_thickness(grain_diameter, mesh_size)
 
 
 def vertical_thickness(points: np.ndarray, x: np.ndarray, side: int = 1) -> np.ndarray:
@@ -259,7 +255,8 @@ def vertical_thickness(points: np.ndarray, x: np.ndarray, side: int = 1) -> np.n
 def thickness_front(points: np.ndarray, threshold: float) -> float:
     """The furthest x (rightwards) where the vertical thickness of the mass bounded by the
     CCW polygon ``points`` is at least ``threshold`` [m]; h(x) is linear between vertex
-    abscissae, so the crossing h = threshold is exact. −inf when the mass is nowhere that
+    abscissae, so the crossing h = threshold is exact (``fronts.profile_front``'s definition
+    on the polygon's exact profile, steps included). −inf when the mass is nowhere that
     thick."""
     xs = np.unique(np.asarray(points, dtype=float)[:, 0])
     right = vertical_thickness(points, xs, +1)   # h just right of each vertex abscissa

@@ -359,3 +359,19 @@ def test_a_two_phase_config_saved_before_a_default_changed_reads_with_the_old_va
     assert from_saved(config_to_dict(cfg)) == config_to_dict(cfg)   # written keys win
     rigid = config_to_dict(load_config(RIGID))                       # not two-phase: as is
     assert from_saved(rigid) == rigid
+
+
+def test_the_mean_inertia_is_the_default_and_saved_runs_keep_theirs():
+    """Issue 50 (docs/benchmarks/2026-12-07-two-phase-one-answer.md): a new two-phase config
+    takes model.inertia mean; a run saved with energy (the default written into every config
+    from 2026-12-05 to 2026-12-07) reads back with energy, one saved before the key with
+    velocity (LEGACY_DEFAULTS)."""
+    from dpcollapse.config import config_to_dict, from_saved, validate_config
+
+    cfg = load_config(ROOT / "configs" / "column_eulerian_a1.42.yaml")
+    assert cfg.model.inertia == "mean"
+    saved = config_to_dict(cfg)
+    saved["model"]["inertia"] = "energy"
+    assert validate_config(from_saved(saved)).model.inertia == "energy"
+    del saved["model"]["inertia"]
+    assert validate_config(from_saved(saved)).model.inertia == "velocity"

@@ -21,7 +21,7 @@ PACKAGE = Path(__file__).resolve().parents[2] / "dpcollapse"
 #: Names are dotted paths under ``dpcollapse`` (a package stands for all its modules);
 #: ``__init__`` is the package's own ``__init__.py``.
 LAYERS: list[tuple[str, ...]] = [
-    ("errors", "wheel_mpi", "transfer", "reference", "signals", "watchdog"),
+    ("errors", "wheel_mpi", "transfer", "reference", "signals", "watchdog", "fronts"),
     ("parallel",),
     ("compat",),
     ("config",),

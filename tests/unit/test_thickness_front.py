@@ -41,3 +41,42 @@ def test_overhang_counts_material_only():
 def test_film_threshold():
     assert film_threshold(1e-3, 0.01) == pytest.approx(3e-3)
     assert film_threshold(1e-4, 0.01) == pytest.approx(2.5e-3)
+
+
+def test_one_front_for_every_model_and_report():
+    """Issue 50: one definition (``fronts.profile_front``): the largest x where the profile
+    through (x_i, h_i) reaches h_f, linear to the next point. The moving mesh's polygon
+    front, the depth-averaged model's ``front_position``, the ladder's thresholds and the
+    two-phase columns read the same x_f from the same profile."""
+    import importlib.util
+
+    from dpcollapse.fronts import front_thickness, profile_front
+    from dpcollapse.models.savage_hutter.solver import Grid, front_position
+    from tests.helpers import ROOT
+
+    x = np.array([0.0, 0.1, 0.2, 0.3])
+    h = np.array([0.05, 0.03, 0.01, 0.0])
+    assert profile_front(x, h, 0.02) == pytest.approx(0.15)          # 0.03 → 0.01 across it
+    assert profile_front(x, h, 0.01) == pytest.approx(0.2)           # reached: counts
+    assert profile_front(x, [0.05, 0.03, 0.02, 0.02], 0.01) == 0.3   # the last point
+    assert np.isnan(profile_front(x, h, 0.1))
+    # the polygon's exact piecewise-linear profile, read at its vertices: the same front
+    xs = np.linspace(0.0, 0.2, 5)
+    for t in (0.005, 0.02, 0.04):
+        assert profile_front(xs, vertical_thickness(deposit(), xs, -1), t) == \
+            pytest.approx(thickness_front(deposit(), t), abs=1e-12)
+    # the depth-averaged model's (and the ladder's 1 mm) front on its cell centres
+    grid = Grid(0.0, 0.4, 40)
+    hs = np.clip(0.05 - 0.2 * grid.centers, 0.0, None)
+    for t in (1e-3, 0.02):
+        assert front_position(hs, grid, t) == profile_front(grid.centers, hs, t)
+        assert front_position(hs, grid, t) == pytest.approx((0.05 - t) / 0.2, abs=1e-12)
+    # the ladder's table of thresholds (studies/benchmarks/two_phase/ladder_thresholds.py)
+    spec = importlib.util.spec_from_file_location(
+        "ladder_thresholds", ROOT / "docs" / "benchmarks" / "two_phase" / "ladder_thresholds.py")
+    table = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(table)
+    assert table.front(np.column_stack([grid.centers, hs]), 0.02) == front_position(hs, grid, 0.02)
+    # the stated thickness: 3 grains (μ(I)) or a quarter of the cell (Drucker–Prager, d = 0)
+    assert front_thickness(0.0, 0.01) == film_threshold(0.0, 0.01) == pytest.approx(2.5e-3)
+    assert front_thickness(1e-3, 0.0044) == pytest.approx(3e-3)

@@ -94,3 +94,21 @@ def test_a_box_mesher_that_never_returns_is_a_mesh_failure(tmp_path):
     assert time.monotonic() - t0 < 60
     lines = [ln for ln in done.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and "meshing did not finish within 2 s" in lines[0], done.stderr
+
+
+def test_the_thickness_front_is_every_model_s_front():
+    """Issue 50: the two-phase ``thick_front`` is ``fronts.profile_front`` through the
+    columns' centres at the stated thickness (the one definition of the depth-averaged
+    model, the ladder and the reports), not the right edge of the last thick column. The
+    initial a = 0.5 column (L0 = 0.1 m, H0 = 0.05 m) on 2 cm cells: h = 0.05 m in the column
+    [0.08, 0.1], 0 in [0.1, 0.12], h_f = max(3 d, ΔX/4) = 5 mm: x_f = 0.09 + 0.02 · 0.045/0.05
+    = 0.108 m (the column's edge 0.1 m was the former reading)."""
+    from dpcollapse.fronts import profile_front
+
+    disc = TwoPhaseFactory(load_config(CONFIG, ["geometry.mesh_size=0.02"])).start(MPI.COMM_SELF)
+    h = disc.thickness()
+    assert disc.thick_floor == pytest.approx(5e-3, rel=1e-5)     # 3 d, d = 1.66667 mm
+    got = disc.measures()["thick_front"]
+    assert got == profile_front((np.arange(disc.nx) + 0.5) * disc.dx_bin, h, disc.thick_floor)
+    assert got == pytest.approx(0.108, abs=1e-8)
+    disc.destroy()

@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dpcollapse.fronts import profile_front
 from dpcollapse.models.savage_hutter.earth_pressure import EarthPressure
 from dpcollapse.models.savage_hutter.friction import CoulombFriction, MuIFriction, SideWallFriction
 from dpcollapse.models.savage_hutter.scheme import (
@@ -169,15 +170,9 @@ class Result:
 
 
 def front_position(h: np.ndarray, grid: Grid, threshold: float) -> float:
-    """Largest x where the linear interpolant of (x_i, h_i) equals threshold (NaN if none)."""
-    above = np.flatnonzero(h > threshold)
-    if above.size == 0:
-        return math.nan
-    k = int(above[-1])
-    x = grid.x_min + (k + 0.5) * grid.dx
-    if k + 1 < h.size:
-        return x + (h[k] - threshold) / (h[k] - h[k + 1]) * grid.dx
-    return x
+    """Largest x where the linear interpolant of (x_i, h_i) through the cell centres reaches
+    threshold (NaN if none): ``fronts.profile_front``, every model's front."""
+    return profile_front(grid.centers, h, threshold)
 
 
 def wet_front_position(h: np.ndarray, grid: Grid, h_dry: float) -> float:

@@ -32,6 +32,7 @@ from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.domain.fixed import FixedDomain
+from dpcollapse.fronts import profile_front
 from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
@@ -115,9 +116,10 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
 
     #: h(x = 0) [m]; min and max of c; advection sub-steps of the last step
     #: and the kinetic energy ∫ c ρ |u|²/2 over every cell (the haze of c the light fluid
-    #: carries included) [J/m]; Σ_K min(c_K, 1) |∫_K ∇·u| [m²/s]
+    #: carries included) [J/m]; Σ_K min(c_K, 1) |∫_K ∇·u| [m²/s]; the material that left
+    #: through the sides other than an outflow (the open top) [m²]
     extra_measures = ("wall_height", "fraction_min", "fraction_max", "substeps",
-                      "mixture_kinetic_energy", "divergence_rate")
+                      "mixture_kinetic_energy", "divergence_rate", "escaped_area")
 
     def __init__(self, tagged: TaggedMesh, cfg, vessel: Container | None = None):
         self.cfg, self.tagged = cfg, tagged
@@ -230,7 +232,8 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
     def measures(self) -> dict:
         """Mass front (furthest x of a cell with c > model.fraction_threshold; on the erodible
         layer of those above 2 h_e), thickness front (right edge of the furthest column with
-        h ≥ film_threshold; on the layer ≥ max(film_threshold, 2 h_e)), max height
+        h ≥ film_threshold, ``fronts.profile_front`` through the columns' centres; on the
+        layer ≥ max(film_threshold, 2 h_e)), max height
         max_j h_j, kinetic energy ∫ c ρ |u|²/2 over the granular cells (c > the threshold:
         the haze of c that the light fluid's circulation carries is left out, measured to
         hold 97 % of the mixture's energy once the deposit stops), gravity's moment
@@ -250,13 +253,15 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
             out = out | self._bin_measures(h)
         return out | {
             "front": self.comm.allreduce(front, op=MPI.MAX),
-            "thick_front": float((thick[-1] + 1) * self.dx_bin) if len(thick) else -math.inf,
+            "thick_front": profile_front((np.arange(self.nx) + 0.5) * self.dx_bin, h, self.thick_floor)
+            if len(thick) else -math.inf,
             "max_height": float(h.max()),
             "kinetic_energy": self.comm.allreduce(fem.assemble_scalar(self._kinetic), op=MPI.SUM),
             "gravity_moment": self.comm.allreduce(fem.assemble_scalar(self._gravity_moment), op=MPI.SUM),
             "area": self.area(),
             "max_speed": self.comm.allreduce(float(speed.max()) if len(speed) else 0.0, op=MPI.MAX),
             "wall_height": float(h[0]),
+            "escaped_area": self.fraction.escaped_volume,
             "fraction_min": lo, "fraction_max": hi,
             "substeps": self.fraction.substeps,
             "divergence_rate": self.fraction.divergence_rate(),
@@ -288,9 +293,9 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
         return "emptied" if self.bin and measures["emptied"] else None
 
     def mass_area(self, measures: dict) -> float:
-        """The area in the vessel plus what left through an outflow side [m²]: outflow is
-        not a loss."""
-        return measures["area"] + (measures["outflow_area"] if self.bin else 0.0)
+        """The area in the vessel plus what left through an outflow side and through the
+        other sides (``escaped_area``: the open top) [m²]: what left is not a loss."""
+        return measures["area"] + measures["escaped_area"] + (measures["outflow_area"] if self.bin else 0.0)
 
     def summary_measures(self) -> dict:
         """run.json's steady discharge (a bin): the mean and relative standard deviation of Q
@@ -393,6 +398,7 @@ class TwoPhaseFactory:
     def save_checkpoint(self, path, disc: TwoPhaseDiscretization, state: dict) -> None:
         """The mesh, uⁿ, pⁿ, cⁿ and the loop state (collective; rank 0 writes); a bin's
         outflow so far and its (Δt, Q) history with the loop state."""
+        state = state | {"escaped_area": disc.fraction.escaped_volume}
         if disc.bin:
             state = state | {"outflow_area": disc.fraction.outflow_volume,
                              "discharge_history": [list(x) for x in disc._discharge]}
@@ -408,6 +414,7 @@ class TwoPhaseFactory:
                                       self.vessel)
         disc.flow.transfer(fields)
         disc.flow.restore_checkpoint(fields, state)
+        disc.fraction.escaped_volume = float(state.get("escaped_area", 0.0))
         if disc.bin:
             disc.fraction.outflow_volume = float(state.get("outflow_area", 0.0))
             disc._discharge = [tuple(x) for x in state.get("discharge_history", [])]

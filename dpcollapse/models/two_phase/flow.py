@@ -3,11 +3,12 @@
 (``forms.two_phase``), then the advection of c by the converged u^{n+1}
 (``fraction.VolumeFraction``, sub-cycled).
 
-    (ρ(cⁿ) u^{n+1} − √(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ)/Δt + ρ(cⁿ) (u^{n+1,k}·∇) u^{n+1} − ∇·(S(cⁿ, u^{n+1,k}, p^{n+1,k}) D(u^{n+1}))
+    (ρ(cⁿ) u^{n+1} − ½(ρ(cⁿ) + ρ(cⁿ⁻¹)) uⁿ)/Δt + ρ(cⁿ) (u^{n+1,k}·∇) u^{n+1} − ∇·(S(cⁿ, u^{n+1,k}, p^{n+1,k}) D(u^{n+1}))
         − ∇(γ S ∇·u^{n+1}) + ∇p^{n+1} = ρ(cⁿ) g,   ∇·u^{n+1} = 0;       then  c^{n+1} = A_Δt(cⁿ; u^{n+1})
 
-(``model.inertia: velocity``, the default before 2026-12-05: ρ(cⁿ) uⁿ/Δt in place of
-√(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ/Δt; ``forms.two_phase.previous_momentum``)
+(``model.inertia: mean``, the default since 2026-12-07; ``energy``, the default from
+2026-12-05: √(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ/Δt; ``velocity``, the default before: ρ(cⁿ) uⁿ/Δt;
+``forms.two_phase.previous_momentum``)
 
 with the grad-div term γ S ∇·u (``forms.two_phase.grad_div``, S the secant viscosity at
 the iterate), the convection in skew-symmetric form and the open top's backflow stabilization
@@ -68,12 +69,14 @@ class LightFluid:
     yield_weighting: str = "grains"  # κ_mix = w(c) κ(p) (forms.two_phase.yield_weight)
     grain_pressure: str = "total"  # the p of κ(p), μ(I) and the bed friction (forms.two_phase)
     cut_cell_pressure: str = "pointwise"  # that p in a cut cell: pointwise or at its centroid
-    inertia: str = "energy"  # the time derivative's densities (forms.two_phase.previous_momentum)
+    inertia: str = "mean"  # the time derivative's densities (forms.two_phase.previous_momentum)
     compression_direction: str = "normal"  # of the interface compression: normal or facet
 
 
-#: the snapshot field of cⁿ⁻¹ (``model.inertia: energy``)
+#: the snapshot field of cⁿ⁻¹ (``model.inertia: energy``, ``mean``)
 PREVIOUS_FRACTION = "volume_fraction_previous"
+#: the snapshot entry of what has left the box: (outflow_volume, escaped_volume) [m²]
+LEFT_THE_BOX = "fraction_left_the_box"
 
 
 class TwoPhaseFlow(RegularizedFlow):
@@ -155,8 +158,8 @@ class TwoPhaseFlow(RegularizedFlow):
         open_tags = self._tags_of(BoundaryKind.FREE_SURFACE, BoundaryKind.OUTFLOW)
         open_ds = sum((ds(t) for t in open_tags[1:]), ds(open_tags[0]))
         self.terms["convection"] = skew_convection(rho, u_k, u, v, n, dx, open_ds)
-        # the time derivative's explicit half: ρ(cⁿ) uⁿ/Δt, or √(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ/Δt
-        # (model.inertia: energy; with the skew convection the consistent ρ Du/Dt)
+        # the time derivative's explicit half: ρ(cⁿ) uⁿ/Δt, √(ρ(cⁿ) ρ(cⁿ⁻¹)) uⁿ/Δt or
+        # ½(ρ(cⁿ) + ρ(cⁿ⁻¹)) uⁿ/Δt (model.inertia: velocity, energy, mean)
         if light.inertia != "velocity":
             previous = self.fraction.previous
             rho_previous = mixture(ufl.min_value(ufl.max_value(previous, 0.0), 1.0), p.density,
@@ -210,6 +213,7 @@ class TwoPhaseFlow(RegularizedFlow):
         self.fraction.c.x.array[:] = other.fraction.c.x.array
         self.fraction.previous.x.array[:] = other.fraction.previous.x.array
         self.fraction.outflow_volume = other.fraction.outflow_volume
+        self.fraction.escaped_volume = other.fraction.escaped_volume
         for name, tracer in self.tracers.items():
             tracer.c.x.array[:] = other.tracers[name].c.x.array
 
@@ -232,13 +236,24 @@ class TwoPhaseFlow(RegularizedFlow):
             fields[fraction.c.name] = gathered(fraction.c)
         if self.light.inertia != "velocity":   # cⁿ⁻¹ of the time derivative's densities
             fields[PREVIOUS_FRACTION] = gathered(self.fraction.previous)
+        fields[LEFT_THE_BOX] = (self.fraction.outflow_volume, self.fraction.escaped_volume)
+        return fields
+
+    def checkpoint_fields(self) -> dict:
+        """``snapshot``'s fields without what has left the box (a number: the checkpoint's
+        state carries it, ``adapter.TwoPhaseFactory.save_checkpoint``)."""
+        fields = super().checkpoint_fields()
+        fields.pop(LEFT_THE_BOX, None)
         return fields
 
     def transfer(self, fields: dict) -> float:
         """The state of ``snapshot`` fields: u, p interpolated (``RegularizedFlow.transfer``);
         c and the tracers by the exact conservative remap of their cell values
-        (``fraction.VolumeFraction.remap_from``: ∫ c kept to round-off)."""
-        names = {fraction.c.name for fraction in self._fractions()} | {PREVIOUS_FRACTION}
+        (``fraction.VolumeFraction.remap_from``: ∫ c kept to round-off); what has left the
+        box so far carried over (∫ c + it is the balance across an adaptive remesh)."""
+        names = {fraction.c.name for fraction in self._fractions()} | {PREVIOUS_FRACTION, LEFT_THE_BOX}
+        if LEFT_THE_BOX in fields:
+            self.fraction.outflow_volume, self.fraction.escaped_volume = fields[LEFT_THE_BOX]
         outside = super().transfer({k: v for k, v in fields.items() if k not in names})
         for fraction in self._fractions():
             field = fields.get(fraction.c.name)

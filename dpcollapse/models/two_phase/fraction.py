@@ -10,6 +10,10 @@ advected with the sub-step count of c.
   ``direction`` "normal" the compression's facet weights carry |n̂·n|, n̂ from the gradient of
   c averaged to the vertices at the start of the step (``_VertexAverage``). Under MPI
   the ghost values of c are updated by a forward scatter after every sub-step.
+* What leaves: the upwind flux takes (u·n)⁺ c out through every side of the box, so
+  ∫ c dx + ``outflow_volume`` (the watched outflow sides, a silo's orifice) +
+  ``escaped_volume`` (every other side: the open top a haze of c rises through) is
+  conserved to round-off; both counted per sub-step with the fluxes' own values.
 """
 
 from __future__ import annotations
@@ -69,7 +73,10 @@ class VolumeFraction:
         self._fluxes = None           # the sub-steps' flux matrices (``bind``)
         self._outflow = None          # ∫_out (u·n)⁺ v ds: the outflow sides' weights (``watch_outflow``)
         self.outflow_volume = 0.0     # material that left through the outflow sides [m²]
+        self.escaped_volume = 0.0     # material that left through the other sides [m²]
+        self._boundary = None         # ∫_∂Ω (u·n)⁺ v ds: every side's weights (``bind``)
         self.pending_outflow = 0.0    # of the step not yet accepted
+        self.pending_escaped = 0.0
         self.step_outflow = (0.0, 0.0)  # (volume, Δt) of the last accepted step
         self._pending_dt = 0.0
 
@@ -89,6 +96,7 @@ class VolumeFraction:
                                   self.S0.dofmap.index_map, C)
         self._rate = fem.form(outflow_rate(u, v, n, dS, ds, C))
         self._divergence = fem.form(ufl.div(u) * v * ufl.dx(domain=mesh))
+        self._boundary = fem.form(outflow_volume_rate(v, u, n, ds))
         self._b = compat.create_vector(self._rate)
         self._u = u
 
@@ -163,16 +171,21 @@ class VolumeFraction:
             self._vertex.update()       # the interface normal of cⁿ, fixed over the sub-steps
         self._fluxes.assemble()
         weights = None if self._outflow is None else self._assemble(self._outflow).copy()
-        out = 0.0
+        others = self._assemble(self._boundary).copy()     # every side, less the outflow's
+        if weights is not None:
+            others -= weights
+        out = escaped = 0.0
         for _ in range(steps):
+            own = self.work.x.array[:self._n]
             if weights is not None:
-                local = float(weights @ self.work.x.array[:self._n])
+                local = float(weights @ own)
                 out += h * self.comm.allreduce(local, op=MPI.SUM)
+            escaped += h * self.comm.allreduce(float(others @ own), op=MPI.SUM)
             residual = self._fluxes.residual(self.work.x.array)
             self.work.x.array[:self._n] -= h * residual / self.volume
             self.work.x.scatter_forward()
         self.pending = self.work.x.array.copy()
-        self.pending_outflow, self._pending_dt = out, dt
+        self.pending_outflow, self.pending_escaped, self._pending_dt = out, escaped, dt
         self.substeps = steps
         return steps
 
@@ -181,6 +194,7 @@ class VolumeFraction:
             self.previous.x.array[:] = self.c.x.array
             self.c.x.array[:] = self.pending
             self.outflow_volume += self.pending_outflow
+            self.escaped_volume += self.pending_escaped
             self.step_outflow = (self.pending_outflow, self._pending_dt)
         self.pending = None
 

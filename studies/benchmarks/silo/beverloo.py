@@ -1,6 +1,6 @@
 """Beverloo fit of a silo sweep (issue 28) and the plots of the silo report.
 
-    python docs/benchmarks/silo/beverloo.py RUNS_DIR OUT_DIR [SILO_RUN ...]
+    python studies/benchmarks/silo/beverloo.py RUNS_DIR OUT_DIR [SILO_RUN ...]
 
 RUNS_DIR: the sweep's folder (each case's run.json: geometry.orifice_width in its config.yaml,
 summary.discharge_steady); the fit Q^(2/3) = (C rho sqrt(g))^(2/3) (D - k d), least squares

@@ -1,7 +1,7 @@
 """The volume fraction c and the speed of silo runs, read back through ParaView (issue 28).
 
-    pvpython docs/benchmarks/silo/fields.py dump RUN T OUT.npz       # ParaView's Xdmf3ReaderT
-    python docs/benchmarks/silo/fields.py plot OUT.png A.npz:TITLE [B.npz:TITLE ...]
+    pvpython studies/benchmarks/silo/fields.py dump RUN T OUT.npz       # ParaView's Xdmf3ReaderT
+    python studies/benchmarks/silo/fields.py plot OUT.png A.npz:TITLE [B.npz:TITLE ...]
 
 ``dump`` reads RUN/solution.xdmf at time T with ParaView and stores the points, triangles, c
 (cells) and velocity (points); ``plot`` draws c with speed contours 0.01, 0.05, 0.2 m/s

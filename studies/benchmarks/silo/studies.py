@@ -1,9 +1,9 @@
 """Tables and plots of the silo studies (issue 28, report 2026-12-03-silo-studies.md).
 
-    python docs/benchmarks/silo/studies.py steady RUN                      # Q while H halves
-    python docs/benchmarks/silo/studies.py beverloo COARSE FINE OUT_DIR    # two resolutions
-    python docs/benchmarks/silo/studies.py hopper RUNS OUT_DIR             # Q against beta
-    python docs/benchmarks/silo/studies.py friction RUNS OUT_DIR [NEWTONIAN_RUN]
+    python studies/benchmarks/silo/studies.py steady RUN                      # Q while H halves
+    python studies/benchmarks/silo/studies.py beverloo COARSE FINE OUT_DIR    # two resolutions
+    python studies/benchmarks/silo/studies.py hopper RUNS OUT_DIR             # Q against beta
+    python studies/benchmarks/silo/studies.py friction RUNS OUT_DIR [NEWTONIAN_RUN]
 
 RUN: a silo run directory (diagnostics.csv: discharge_rate, fill_height; run.json). COARSE,
 FINE, RUNS: a sweep's ``runs`` folder. Q [kg/(m s)] is the flux of c through the orifice for

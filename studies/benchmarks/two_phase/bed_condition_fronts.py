@@ -1,7 +1,7 @@
 """Front histories of the rigid-bed trapezoid: the two-phase model against the moving mesh,
 Coulomb bed against no-slip bed.
 
-    python docs/benchmarks/two_phase/bed_condition_fronts.py OUT.png "label=RUN" ...
+    python studies/benchmarks/two_phase/bed_condition_fronts.py OUT.png "label=RUN" ...
 
 Each RUN is a run directory (diagnostics.csv); a label starting with "MM" is drawn dashed.
 The front is diagnostics.csv's ``front`` (the moving mesh's mesh front; the two-phase model's

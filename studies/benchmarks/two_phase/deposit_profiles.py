@@ -1,7 +1,7 @@
 """Deposit profiles h(x) of the rigid-bed trapezoid: two-phase runs against moving-mesh runs
 (docs/benchmarks/2026-12-05-two-phase-inertia.md).
 
-    python docs/benchmarks/two_phase/deposit_profiles.py OUT.png DX [--toe=X0,X1,HMAX] "label=RUN[@DX]" ...
+    python studies/benchmarks/two_phase/deposit_profiles.py OUT.png DX [--toe=X0,X1,HMAX] "label=RUN[@DX]" ...
 
 h(x) = Σ c_K |K ∩ S| / DX over the column S = [x, x + DX) × ℝ (exact triangle-strip overlaps,
 ``remap.strip_overlaps``) of the last output (fields/step_*.h5): c the volume fraction of a two-phase run, 1 on a moving

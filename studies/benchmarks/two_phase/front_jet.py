@@ -1,6 +1,6 @@
 """The light fluid's jet ahead of the two-phase trapezoid's front: c and |u| near the bed.
 
-    python docs/benchmarks/two_phase/front_jet.py OUT.png T "label=RUN" ["label=RUN" ...]
+    python studies/benchmarks/two_phase/front_jet.py OUT.png T "label=RUN" ["label=RUN" ...]
 
 One row per run (two-phase run directories with fields/): left c, right |u| (log colour
 scale) of the output nearest time T, in the window x 0.2–0.9 m, y 0–0.2 m, with the c = ½

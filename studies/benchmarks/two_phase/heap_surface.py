@@ -1,7 +1,7 @@
 """The largest change of a two-phase run's surface between its first and last output
 (docs/benchmarks/2026-12-04-cut-cell-pressure.md, §1):
 
-    python docs/benchmarks/two_phase/heap_surface.py RUN_DIR DX
+    python studies/benchmarks/two_phase/heap_surface.py RUN_DIR DX
 
 h(x) = ∫ c dy per column of width DX [m] (cells binned by their centroid's x, Σ c_K |K| / DX),
 read from the run's fields/step_*.h5 (the XDMF output); prints max |h_last − h_first| in m

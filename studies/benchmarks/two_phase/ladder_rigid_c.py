@@ -1,7 +1,7 @@
 """The rigid trapezoid on the two-phase model (the ladder's two-phase rung): c at the first
 and last output, read back with ParaView's Xdmf3ReaderT, with ∫ c of each.
 
-Usage: pvpython docs/benchmarks/two_phase/ladder_rigid_c.py RUN/solution.xdmf OUT.png
+Usage: pvpython studies/benchmarks/two_phase/ladder_rigid_c.py RUN/solution.xdmf OUT.png
 (RUN: the ladder's work folder ``rigid_tp``, from ``python -m studies ladder --two-phase``.)
 """
 import sys

@@ -3,7 +3,7 @@ the front x where the deposit profile h(x) last reaches h ≥ 1, 2, 5, 10, 20 mm
 (moving-mesh) rung and the two-phase rung, from ladder_series.csv's "profile" rows (linear
 between the stored points), as runouts x − L0 and their relative difference.
 
-    python docs/benchmarks/two_phase/ladder_thresholds.py LADDER_DIR [CASE ...]
+    python studies/benchmarks/two_phase/ladder_thresholds.py LADDER_DIR [CASE ...]
 
 (LADDER_DIR: the folder of ladder.csv and ladder_series.csv, e.g. docs/figures.)
 """
@@ -14,19 +14,15 @@ from pathlib import Path
 
 import numpy as np
 
+from dpcollapse.fronts import profile_front
+
 THRESHOLDS = (1e-3, 2e-3, 5e-3, 1e-2, 2e-2)
 
 
 def front(profile: np.ndarray, threshold: float) -> float:
-    """Largest x with h ≥ threshold, interpolated to the next stored point; nan if none."""
-    x, h = profile[:, 0], profile[:, 1]
-    above = np.nonzero(h >= threshold)[0]
-    if not len(above):
-        return float("nan")
-    i = above[-1]
-    if i + 1 >= len(x):
-        return float(x[i])
-    return float(x[i] + (h[i] - threshold) / (h[i] - h[i + 1]) * (x[i + 1] - x[i]))
+    """Largest x with h ≥ threshold, interpolated to the next stored point; nan if none
+    (``dpcollapse.fronts.profile_front``, every model's front)."""
+    return profile_front(profile[:, 0], profile[:, 1], threshold)
 
 
 def main(folder: str, cases: list[str]) -> None:

@@ -1,6 +1,6 @@
 """The kinetic energy the light fluid and the grains carry in a two-phase run, at one time.
 
-    python docs/benchmarks/two_phase/light_energy.py T RHO_A RUN [RUN ...]
+    python studies/benchmarks/two_phase/light_energy.py T RHO_A RUN [RUN ...]
 
 From the output nearest time T (fields/step_*.h5: the velocity at the vertices, c per cell):
 per cell the mean of |u|² over its vertices, E_a = ½ ρ_a ∫ (1 − c) |u|², E_g = ½ ρ_g ∫ c |u|²

@@ -1,6 +1,6 @@
 """The a = 6.26 column at L0/32: where the granular phase moves faster than free fall.
 
-    python docs/benchmarks/two_phase/overspeed.py RUN OUT.png [T]
+    python studies/benchmarks/two_phase/overspeed.py RUN OUT.png [T]
 
 RUN: a two-phase run directory (fields/ and diagnostics.csv); T the output time to show
 (default: the output nearest 0.22 s). Left: c and |u| of the output at T (the white contour

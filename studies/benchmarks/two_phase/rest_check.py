@@ -7,7 +7,7 @@ their last step: T and 2T) the script also prints a sub-cell mass front, the fur
 the c = ½ contour of c averaged to the vertices (area-weighted, linear along each edge), above
 FLOOR [m] (default 0; on an erodible layer 2 h_e, as the diagnostics' mass front).
 
-    python docs/benchmarks/two_phase/rest_check.py RUN_AT_REST RUN_CONTINUED H0 [FLOOR]
+    python studies/benchmarks/two_phase/rest_check.py RUN_AT_REST RUN_CONTINUED H0 [FLOOR]
 """
 
 import csv

@@ -1,7 +1,7 @@
 """c at the rest time T and at 2T, one panel each, the c = ½ contour of T drawn on the 2T
 panel (issue 27, docs/benchmarks/2026-12-04-two-phase-rest-grains.md):
 
-    python docs/benchmarks/two_phase/rest_grains_figure.py OUT.png LABEL=RUN_DIR@T ...
+    python studies/benchmarks/two_phase/rest_grains_figure.py OUT.png LABEL=RUN_DIR@T ...
 
 Reads the output nearest each time from RUN_DIR/fields/step_*.h5 (the DG0 volume fraction)
 with ``yield_weighting_heap.fraction``; the view is the box of the cells with c > 0.01, padded.

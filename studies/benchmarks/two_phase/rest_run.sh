@@ -2,7 +2,7 @@
 # Issue 27's rest rule on one config: run it to rest (time T, run.json's summary), copy the
 # run directory and resume the copy to 2T with the rest rule held off, then compare the two
 # (rest_check.py: fronts and top at T and 2T, the sub-cell mass front from the checkpoints).
-#   docs/benchmarks/two_phase/rest_run.sh CONFIG OUT_DIR H0 [FLOOR]
+#   studies/benchmarks/two_phase/rest_run.sh CONFIG OUT_DIR H0 [FLOOR]
 # (from the project root; FLOOR: 2 h_e on an erodible layer). Writes OUT_DIR, OUT_DIR_2T,
 # their .log files and OUT_DIR_check.txt.
 set -e

@@ -3,8 +3,8 @@ one case of ``ladder.shallow_plan()`` with ``geometry.mesh_size`` replaced by CE
 two-phase rung (``tp``, against the 2D row of docs/figures/ladder_shallow.csv) or its 2D and
 depth-averaged rungs (``2d``); one JSON line of the results.
 
-    python docs/benchmarks/two_phase/shallow_resolution.py tp shallow_flat_eps0.1 0.003 WORK
-    python docs/benchmarks/two_phase/shallow_resolution.py 2d shallow_flat_eps0.1 0.003 WORK
+    python studies/benchmarks/two_phase/shallow_resolution.py tp shallow_flat_eps0.1 0.003 WORK
+    python studies/benchmarks/two_phase/shallow_resolution.py 2d shallow_flat_eps0.1 0.003 WORK
 """
 import dataclasses
 import json

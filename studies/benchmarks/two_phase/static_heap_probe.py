@@ -1,6 +1,6 @@
 """Where the static heap of the two-phase model flows, read back by ParaView (issue 27).
 
-    pvpython docs/benchmarks/two_phase/static_heap_probe.py RUN/solution.xdmf [FLANK_DEG MU_S]
+    pvpython studies/benchmarks/two_phase/static_heap_probe.py RUN/solution.xdmf [FLANK_DEG MU_S]
 
 RUN is the heap run of docs/benchmarks/2026-12-04-two-phase-static-heap.md (height 0.1 m,
 base 0.4 m, flank at FLANK_DEG = 20°, μ_s = MU_S = tan 25.5°, 1 cm cells). Per output time,

@@ -1,7 +1,7 @@
 """c on the static heap's flank at the last output of each run, one panel per run (issue 27,
 docs/benchmarks/2026-12-04-two-phase-yield-weighting.md):
 
-    python docs/benchmarks/two_phase/yield_weighting_heap.py OUT.png LABEL=RUN_DIR...
+    python studies/benchmarks/two_phase/yield_weighting_heap.py OUT.png LABEL=RUN_DIR...
 
 Reads RUN_DIR/fields/step_*.h5 (the DG0 volume fraction of the last one, and the first for
 the initial interface c = ½, drawn as a line) with h5py.

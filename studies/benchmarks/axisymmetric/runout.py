@@ -1,6 +1,6 @@
 """The cylindrical columns' runout from their run directories (report 2026-12-07-axisymmetric).
 
-Usage: python docs/benchmarks/axisymmetric/runout.py RUN_DIR [RUN_DIR ...]
+Usage: python studies/benchmarks/axisymmetric/runout.py RUN_DIR [RUN_DIR ...]
 
 For each run of ``configs/column_axi_a*.yaml`` (its config.yaml gives r0 = base_length and
 H0 = height), from diagnostics.csv: the state when the kinetic energy first falls below
