@@ -21,6 +21,7 @@ from dpcollapse.ale.motion import MeshMotion, cell_orientation, quality
 from dpcollapse.ale.quality import courant_rate
 from dpcollapse.config import Config
 from dpcollapse.domain.base import make_domain
+from dpcollapse.geometry.boundary_loops import BoundaryLoops
 from dpcollapse.geometry.mesher import DOMAIN, TaggedMesh
 from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
 from dpcollapse.io.law_fields import LawFields
@@ -95,6 +96,8 @@ class StokesDiscretization(DiscretizationDefaults):
                                              cfg.geometry.mesh_size)
         self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
                                  direct_solver(cfg)) if cfg.numerics.ale else None
+        # the boundary's chaining for the thickness front, done once per mesh (rank 0)
+        self._boundary_loops = BoundaryLoops()
         u, p = ufl.split(self.flow.solution)
         self._area = fem.form(1.0 * ufl.dx(domain=mesh))
         self._kinetic = fem.form(0.5 * cfg.material.density * ufl.inner(u, u) * ufl.dx)
@@ -197,13 +200,14 @@ class StokesDiscretization(DiscretizationDefaults):
         the front of a deposit that ends in a thin film; −inf on a boundary that does not
         chain into one loop."""
         from dpcollapse.geometry.mesher import boundary_edges
-        from dpcollapse.geometry.polygon import chain_loops
 
         edges, tags = boundary_edges(self.tagged)
         front = None
         if self.comm.rank == 0:
             try:
-                poly = chain_loops(edges, tags)[0]     # the outer loop (holes: pockets)
+                # the outer loop (holes: pockets); chained once per mesh (geometry.boundary_loops)
+                key = (self.tagged.mesh, self.tagged.facet_tags)
+                poly = self._boundary_loops.loops(edges, tags, key)[0]
                 front = thickness_front(poly.points, self.film_threshold)
             except ValueError:
                 front = -math.inf
