@@ -3,7 +3,6 @@ every step) chains the boundary edges once per mesh and reuses the chaining whil
 only moves (``geometry.boundary_loops``): the same front as a fresh ``chain_loops`` of the
 moved boundary, at one chaining instead of one per step (issue 51: it was 15 % of a 2 cm run)."""
 
-import numpy as np
 from mpi4py import MPI
 
 from dpcollapse.config import load_config
