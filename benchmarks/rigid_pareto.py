@@ -190,7 +190,7 @@ def chart(rows: list[dict], png: Path, default: str | None, proposed: str | None
     tols = sorted({r["tol"] for r in rows})
     markers = dict(zip(tols, "v^osDph*"))
     colors = {h: f"C{i}" for i, h in enumerate(sizes)}
-    fig, axes = plt.subplots(1, 3, figsize=(16, 5.2))
+    fig, axes = plt.subplots(1, 3, figsize=(16, 6.0))
     for ax, key, label in zip(axes, ("e_hist", "e_inf", "e_l1"),
                               ("front history max |x_f − ref| [mm]", "profile at rest L∞ [mm]",
                                "profile at rest L¹ [cm²]")):
@@ -219,10 +219,10 @@ def chart(rows: list[dict], png: Path, default: str | None, proposed: str | None
                 for t in tols]
     handles += [plt.Line2D([], [], color="gray", marker="o", mfc="none", ls="",
                            label="graded (open: ΔX inside, surface finer)")]
-    axes[0].legend(handles=handles, fontsize=7, loc="upper right")
-    axes[1].legend(fontsize=7, loc="lower left")
+    handles += axes[1].get_legend_handles_labels()[0][-3:]
+    fig.legend(handles=handles, fontsize=8, loc="lower center", ncol=6)
     fig.suptitle("rigid collapse: error against the space–time reference vs cost")
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
     fig.savefig(png, dpi=110)
 
 
@@ -233,7 +233,10 @@ def main(argv=None) -> int:
     ap.add_argument("--richardson", nargs=3, metavar=("COARSE", "MID", "FINE"))
     ap.add_argument("--default")
     ap.add_argument("--proposed")
-    ap.add_argument("--exclude", nargs="*", default=[], help="run names not charted (e.g. the reference)")
+    ap.add_argument("--exclude", nargs="*", default=[], help="run names not measured")
+    ap.add_argument("--variants", nargs="*", default=[],
+                    help="runs of a charted setting under other round-off (another OpenBLAS kernel): "
+                         "listed apart, as the spread of that setting's errors, not charted")
     ap.add_argument("--csv", type=Path)
     ap.add_argument("--png", type=Path)
     args = ap.parse_args(argv)
@@ -263,13 +266,16 @@ def main(argv=None) -> int:
         richardson([loaded[n] for n in args.richardson])
     rows = []
     for name, r in loaded.items():
-        if name == ref["name"] or name in args.exclude:
+        if name == ref["name"] or name in args.exclude or name in args.variants:
             continue
         rows.append(r | errors(r, ref))
+    variants = [loaded[n] | errors(loaded[n], ref) for n in args.variants if n in loaded]
     rows.sort(key=lambda r: (r["h"], r["surface"], r["tol"]))
     print(f"{'run':16s} {'ΔX':>5s} {'surf':>5s} {'tol':>7s} {'steps':>5s} {'LU':>5s} {'CPU':>6s} "
           f"{'hist':>5s} {'L∞':>5s} {'L¹':>5s} {'front':>6s} {'height':>6s} {'rest':>5s}")
-    for r in rows:
+    for r in rows + variants:
+        if r is (variants or [None])[0]:
+            print("round-off variants (other OpenBLAS kernels; not charted):")
         print(f"{r['name']:16s} {100 * r['h']:5.2g} {100 * r['surface']:5.2g} {r['tol']:7.0e} "
               f"{r['steps']:5d} {r['lu']:5d} {r['cpu']:6.1f} {r['e_hist']:5.2f} {r['e_inf']:5.2f} "
               f"{r['e_l1']:5.2f} {r['e_front']:+6.2f} {r['e_height']:+6.2f} {r['rest']:5.3f}")
