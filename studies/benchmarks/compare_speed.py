@@ -12,6 +12,10 @@ child (user + system) and the number of steps; then the medians, the new/old rat
 each round and its median over rounds (robust to a load that drifts between rounds). The
 runs must agree in steps and final front, or the comparison is refused.
 
+The headline before and after a change of ``configs/rigid.yaml`` itself (each revision runs
+its own file): ``benchmarks/compare_speed.sh OLD_REV NEW_REV`` (issue 51); when the two files
+differ the sides are two computations, as with ``--old-set`` / ``--new-set`` below.
+
 ``--old-set`` / ``--new-set`` add overrides to one side only (e.g. the old and the new time
 settings of ``configs/rigid.yaml`` on one commit): the two sides are then different
 computations, so each side's runs must agree among themselves, and the steps, LU
@@ -98,6 +102,10 @@ def main(argv=None) -> int:
             subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", str(path), rev],
                            check=True, capture_output=True)
             checkouts[label] = path
+        config = {label: (path / "configs" / "rigid.yaml").read_bytes() for label, path in checkouts.items()}
+        if config["old"] != config["new"]:   # e.g. the headline before and after a new default
+            settings = True
+            print("configs/rigid.yaml differs between the two revisions: two computations")
         for label, path in checkouts.items():  # warm-up: JIT compile, not timed
             _run(args.python, path, tmp / f"warm_{label}", ["time.end_time=0.003"])
         results = {"old": [], "new": []}

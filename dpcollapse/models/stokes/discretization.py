@@ -21,6 +21,7 @@ from dpcollapse.ale.motion import MeshMotion, cell_orientation, quality
 from dpcollapse.ale.quality import courant_rate
 from dpcollapse.config import Config
 from dpcollapse.domain.base import make_domain
+from dpcollapse.geometry.boundary_loops import BoundaryLoops
 from dpcollapse.geometry.mesher import DOMAIN, TaggedMesh
 from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
 from dpcollapse.io.law_fields import LawFields
@@ -101,6 +102,8 @@ class StokesDiscretization(DiscretizationDefaults):
                                              cfg.geometry.mesh_size)
         self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
                                  direct_solver(cfg), self.scene.bed_height) if cfg.numerics.ale else None
+        # the boundary's chaining for the thickness front, done once per mesh (rank 0)
+        self._boundary_loops = BoundaryLoops()
         u, p = ufl.split(self.flow.solution)
         # axisymmetric: the body of revolution's volume [m³], energy [J] and moment (2πr dx);
         # planar: per unit depth (dx)
@@ -207,13 +210,14 @@ class StokesDiscretization(DiscretizationDefaults):
         the front of a deposit that ends in a thin film; −inf on a boundary that does not
         chain into one loop."""
         from dpcollapse.geometry.mesher import boundary_edges
-        from dpcollapse.geometry.polygon import chain_loops
 
         edges, tags = boundary_edges(self.tagged)
         front = None
         if self.comm.rank == 0:
             try:
-                poly = chain_loops(edges, tags)[0]     # the outer loop (holes: pockets)
+                # the outer loop (holes: pockets); chained once per mesh (geometry.boundary_loops)
+                key = (self.tagged.mesh, self.tagged.facet_tags)
+                poly = self._boundary_loops.loops(edges, tags, key)[0]
                 front = thickness_front(poly.points, self.film_threshold)
             except ValueError:
                 front = -math.inf
