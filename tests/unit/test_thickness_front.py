@@ -73,7 +73,7 @@ def test_one_front_for_every_model_and_report():
         assert front_position(hs, grid, t) == pytest.approx((0.05 - t) / 0.2, abs=1e-12)
     # the ladder's table of thresholds (studies/benchmarks/two_phase/ladder_thresholds.py)
     spec = importlib.util.spec_from_file_location(
-        "ladder_thresholds", ROOT / "docs" / "benchmarks" / "two_phase" / "ladder_thresholds.py")
+        "ladder_thresholds", ROOT / "studies" / "benchmarks" / "two_phase" / "ladder_thresholds.py")
     table = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(table)
     assert table.front(np.column_stack([grid.centers, hs]), 0.02) == front_position(hs, grid, 0.02)
