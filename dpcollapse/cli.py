@@ -19,11 +19,13 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import logging  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
+from collections.abc import Sequence  # noqa: E402
 from pathlib import Path  # noqa: E402
-from typing import Any, Sequence  # noqa: E402
+from typing import Any
 
 import click  # noqa: E402
 
+from dpcollapse import parallel, signals, watchdog  # noqa: E402
 from dpcollapse.config import Config, load_config  # noqa: E402
 from dpcollapse.errors import (  # noqa: E402
     ConfigError,
@@ -32,7 +34,6 @@ from dpcollapse.errors import (  # noqa: E402
     Interrupted,
     OutputError,
 )
-from dpcollapse import parallel, signals, watchdog  # noqa: E402
 from dpcollapse.parallel import PeerFailed, end_together, install_excepthook  # noqa: E402
 
 try:  # an editable install made before dpcollapse/__init__.py existed sees a namespace package
@@ -328,7 +329,7 @@ _validation("bagnold", "Steady mu(I) flow down a slope (periodic layer) vs the B
             "mesh sweep.", "Two coarse meshes, looser steadiness (about 10 s).")
 
 
-from dpcollapse.sweep.commands import plot_sweep, sweep  # no DOLFINx imported
+from dpcollapse.sweep.commands import plot_sweep, sweep  # noqa: E402 (no DOLFINx imported)
 
 cli.add_command(sweep)
 cli.add_command(plot_sweep)

@@ -34,8 +34,9 @@ import pickle
 import sys
 import time
 import traceback
+from collections.abc import Callable
 from contextlib import contextmanager
-from typing import Any, Callable
+from typing import Any
 
 from dpcollapse.errors import DpcollapseError
 

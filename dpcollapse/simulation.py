@@ -34,9 +34,9 @@ from mpi4py import MPI
 
 from dpcollapse import compat, parallel, watchdog
 from dpcollapse.config import Config, config_to_dict, save_config
+from dpcollapse.domain.base import refuse_degenerate
 from dpcollapse.errors import ConfigError, ConvergenceError, DpcollapseError, Interrupted, MeshError
 from dpcollapse.fingerprint import check_identity, config_fingerprint
-from dpcollapse.domain.base import refuse_degenerate
 from dpcollapse.geometry.mesher import TaggedMesh
 from dpcollapse.io.checkpoint import previous_path, take_not_restored
 from dpcollapse.io.diagnostics import DiagnosticsWriter

@@ -15,9 +15,9 @@ how far outside the farthest such point was.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from os import PathLike
-from typing import Mapping, Sequence
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -222,7 +222,7 @@ class CellwiseField:
                 f"{prefix}degree": np.array(self.degree, dtype=np.int64)}
 
     @classmethod
-    def from_arrays(cls, d: Mapping[str, np.ndarray], prefix: str = "") -> "CellwiseField":
+    def from_arrays(cls, d: Mapping[str, np.ndarray], prefix: str = "") -> CellwiseField:
         """Inverse of :meth:`to_arrays` (accepts a dict or an open ``np.load`` NpzFile)."""
         return cls(np.asarray(d[f"{prefix}vertices"]), np.asarray(d[f"{prefix}points"]),
                    np.asarray(d[f"{prefix}values"]), int(np.asarray(d[f"{prefix}degree"])))
@@ -232,7 +232,7 @@ class CellwiseField:
         np.savez(path, **self.to_arrays())
 
     @classmethod
-    def load(cls, path: str | PathLike) -> "CellwiseField":
+    def load(cls, path: str | PathLike) -> CellwiseField:
         """Read a field written by :meth:`save`."""
         with np.load(path) as d:
             return cls.from_arrays(d)

@@ -2,7 +2,8 @@
 
 Fixed cases (rigid collapse at two mesh sizes, plug flow, Bagnold), each run through the
 ordinary :class:`~dpcollapse.simulation.Simulation` with the solver left untouched. For each
-case the table reports: steps, simulated time, the smallest/mean/largest Δt, wall time (the time loop, initial output
+case the table reports: steps, simulated time, the smallest/mean/largest Δt, wall time (the time loop,
+initial output
 included: ``Simulation.timings["total"]``) and wall time per simulated second, mean/max
 nonlinear iterations per step, linear solves per step (flow + mesh velocity), the split of
 the wall time between assembly, LU factorization, LU solve (forward/back substitution),
@@ -53,9 +54,9 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Sequence
 
 import numpy as np
 
@@ -236,8 +237,8 @@ def linear_solve_time(cfg, comm, repeats: int = REPEATS) -> tuple[float, int]:
     from dolfinx import fem
     from mpi4py import MPI
 
-    from dpcollapse.scenes.registry import build_mesh
     from dpcollapse.models.stokes.discretization import StokesDiscretization, initial_velocity
+    from dpcollapse.scenes.registry import build_mesh
 
     disc = StokesDiscretization(build_mesh(cfg, comm), cfg)
     try:
@@ -495,20 +496,25 @@ def format_table(result: BenchResult) -> str:
     for r in result.rows:
         lines.append(
             f"{r['case']:<10} {r['np']:>2} {r['dofs']:>7} {r['steps']:>5} {r['sim_time']:>6.3f} "
-            f"{_fmt(1e3 * r['dt_mean_s'], '5.2f'):>5} {r['wall_s']:>7.1f} {_fmt(r['wall_per_sim_s'], '7.1f'):>7} "
+            f"{_fmt(1e3 * r['dt_mean_s'], '5.2f'):>5} {r['wall_s']:>7.1f} "
+            f"{_fmt(r['wall_per_sim_s'], '7.1f'):>7} "
             f"{_fmt(r['mean_iterations'], '5.2f'):>5} {r['max_iterations']:>4} "
             f"{_fmt(r['linear_solves_per_step'], '6.2f'):>6} "
             + " ".join(f"{r['pct_' + p]:>5.1f}" for p in PARTS)
             + f" {r['peak_mb']:>6.0f} {_fmt(r['overhead_ratio'], '5.2f'):>5} "
-            f"{_fmt(r['speedup'], '7.2f'):>7}")
+            f"{_fmt(r['speedup'], '7.2f'):>7}"
+        )
         if not str(r["status"]).startswith(("at_rest", "end_time")):
             lines[-1] += f"  [{r['status']}]"
-    lines.append("dt ms: mean time step [ms]; wall: time loop [s]; wall/s: per simulated second; it/max: nonlinear iterations "
-                 "per step; lin/st: linear solves per step (flow + mesh velocity); %: share of the "
-                 "wall time (asm assembly, fact LU factorization, sol LU solve, pic rest of the "
-                 "Picard loop, ale mesh motion, rem remesh, out output, oth other); MB: peak RSS; "
-                 "ovh: wall / (steps x one assembly+factorization+solve); speedup: serial/parallel "
-                 "wall per simulated second")
+    lines.append(
+        "dt ms: mean time step [ms]; wall: time loop [s]; wall/s: per simulated second; "
+        "it/max: nonlinear iterations per step; lin/st: linear solves per step (flow + mesh "
+        "velocity); %: share of the wall time (asm assembly, fact LU factorization, sol LU "
+        "solve, pic rest of the Picard loop, ale mesh motion, rem remesh, out output, oth "
+        "other); MB: peak RSS; "
+        "ovh: wall / (steps x one assembly+factorization+solve); speedup: serial/parallel "
+        "wall per simulated second"
+    )
     if result.growth:
         lines += ["", f"{'growth':<10} {'dofs':>7} {'steps':>5} {'it':>5} {'s/step':>8} "
                       f"{'1 solve [s]':>11} {'ovh':>5} {'MB':>6}"]
@@ -540,9 +546,9 @@ def write_csv(path: Path, rows: list[dict]) -> None:
 
 
 def write_json(path: Path, result: BenchResult, quick: bool, size: int) -> None:
-    from dpcollapse.io.runinfo import versions, write_json_atomic
-
     import platform
+
+    from dpcollapse.io.runinfo import versions, write_json_atomic
 
     write_json_atomic(path, {
         "versions": versions(), "host": platform.node(), "cpus": os.cpu_count(),

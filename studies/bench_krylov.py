@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from dpcollapse import compat
+from dpcollapse.errors import DpcollapseError, Interrupted
 from studies.bench import (
     Instrument,
     _csv_value,
@@ -42,7 +43,6 @@ from studies.bench import (
     load_case_config,
     rerun_under_mpi,
 )
-from dpcollapse.errors import DpcollapseError, Interrupted
 
 
 @dataclass(frozen=True)

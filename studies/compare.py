@@ -67,13 +67,24 @@ PLUG_FULL = [
     ("augmented_lagrangian", "rtol=1e-3", ["numerics.nonlinear_rtol=1e-3"]),
     ("augmented_lagrangian", "rtol=1e-4", ["numerics.nonlinear_rtol=1e-4"]),
     ("augmented_lagrangian", "rtol=1e-4 r=5", ["numerics.nonlinear_rtol=1e-4", "numerics.augmentation=5"]),
-    ("augmented_lagrangian", "rtol=1e-4 r=500", ["numerics.nonlinear_rtol=1e-4", "numerics.augmentation=500"]),
+    (
+        "augmented_lagrangian",
+        "rtol=1e-4 r=500",
+        ["numerics.nonlinear_rtol=1e-4", "numerics.augmentation=500"],
+    ),
     ("augmented_lagrangian", "rtol=1e-4 h=10mm", ["numerics.nonlinear_rtol=1e-4", "geometry.mesh_size=0.01"]),
 ]
 PLUG_QUICK = [
-    ("regularized", "eps=1e-6 h=10mm", ["numerics.epsilon=1e-6", "geometry.mesh_size=0.01", "time.end_time=0.45"]),
-    ("augmented_lagrangian", "rtol=1e-4 h=10mm", ["numerics.nonlinear_rtol=1e-4", "geometry.mesh_size=0.01",
-                                                  "time.end_time=0.45"]),
+    (
+        "regularized",
+        "eps=1e-6 h=10mm",
+        ["numerics.epsilon=1e-6", "geometry.mesh_size=0.01", "time.end_time=0.45"],
+    ),
+    (
+        "augmented_lagrangian",
+        "rtol=1e-4 h=10mm",
+        ["numerics.nonlinear_rtol=1e-4", "geometry.mesh_size=0.01", "time.end_time=0.45"],
+    ),
 ]
 #: Augmented Lagrangian absolute tolerance on the plug case [m/s]: the layer comes to rest,
 #: where only the absolute part of the stopping test can be met.
@@ -290,7 +301,9 @@ def _write(out_dir: Path, case: str, runs: list[Run], ylabel: str) -> None:
         rs = [r for r in runs if r.method == method and np.isfinite(r.error) and r.error > 0]
         ax.loglog([r.wall_time for r in rs], [r.error for r in rs], marker, label=method.replace("_", " "))
         for r in rs:
-            ax.annotate(r.label, (r.wall_time, r.error), fontsize=7, xytext=(3, 3), textcoords="offset points")
+            ax.annotate(
+                r.label, (r.wall_time, r.error), fontsize=7, xytext=(3, 3), textcoords="offset points"
+            )
     ax.set_xlabel("wall time [s] (this machine, same run)")
     ax.set_ylabel(ylabel)
     title = f"{case}: accuracy against cost"

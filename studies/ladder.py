@@ -439,7 +439,9 @@ def k_variants(cfg: Config, case: Case, dx: float, end_time: float, runout_2d: f
     series = []
     for tag in ("k", "ka"):
         for longer in (1, 2, 4):
-            sh_cfg = with_overrides(sh_config(cfg, dx, longer * x_max), ["model.earth_pressure=savage_hutter"])
+            sh_cfg = with_overrides(
+                sh_config(cfg, dx, longer * x_max), ["model.earth_pressure=savage_hutter"]
+            )
             setup = setup_from_config(sh_cfg)
             ep = setup.model.earth_pressure
             earth = ep if tag == "k" else EarthPressure(k_rankine, k_rankine)
@@ -686,25 +688,34 @@ def table(rows: list[dict]) -> str:
             f"{r['runout_2d']:.4f} / {r['runout_sh']:.4f} | {100 * r['runout_diff']:+.1f} % | "
             f"{r['height_2d']:.4f} / {r['height_sh']:.4f} | {100 * r['height_diff']:+.1f} % | "
             f"{r['l1_diff_m2']:.2e} ({r['l1_rel']:.2f}) | {r['cpu_2d_s']:.1f} / {r['cpu_sh_s']:.2f} | "
-            f"{r['cost_ratio_cpu']:.0f} ({r['cost_ratio']:.0f}) | {'yes' if str(r['within_5pct']) == 'True' else 'no'} |")
+            f"{r['cost_ratio_cpu']:.0f} ({r['cost_ratio']:.0f}) | "
+            f"{'yes' if str(r['within_5pct']) == 'True' else 'no'} |"
+        )
     return "\n".join(lines)
 
 
 def k_table(rows: list[dict]) -> str:
     """Markdown: every row's depth-averaged runout and deposit height with K = 1, Savage–Hutter's
     K_act/pass and a constant Rankine K against the 2D ones."""
-    lines = ["| case | K_act / K_pass (K_R) | ΔL 2D [m] | ΔL SH: K = 1 / SH K / K_R [m] | Δ runout: K = 1 / SH K / K_R | "
-             "Δ H_f: K = 1 / SH K / K_R | SH K status | CPU SH K [s] |",
-             "| " + " | ".join(["---"] * 8) + " |"]
+    lines = [
+        "| case | K_act / K_pass (K_R) | ΔL 2D [m] | ΔL SH: K = 1 / SH K / K_R [m] | "
+        "Δ runout: K = 1 / SH K / K_R | "
+        "Δ H_f: K = 1 / SH K / K_R | SH K status | CPU SH K [s] |",
+        "| " + " | ".join(["---"] * 8) + " |",
+    ]
     for r in rows:
         if not isinstance(r.get("runout_diff_k"), float):
             continue
         lines.append(
-            f"| {r['case']} | {r['k_act']:.3f} / {r['k_pass']:.3f} ({r['k_rankine']:.3f}) | {r['runout_2d']:.4f} | "
+            f"| {r['case']} | {r['k_act']:.3f} / {r['k_pass']:.3f} ({r['k_rankine']:.3f}) | "
+            f"{r['runout_2d']:.4f} | "
             f"{r['runout_sh']:.4f} / {r['runout_sh_k']:.4f} / {r['runout_sh_ka']:.4f} | "
-            f"{100 * r['runout_diff']:+.1f} / {100 * r['runout_diff_k']:+.1f} / {100 * r['runout_diff_ka']:+.1f} % | "
-            f"{100 * r['height_diff']:+.1f} / {100 * r['height_diff_k']:+.1f} / {100 * r['height_diff_ka']:+.1f} % | "
-            f"{str(r['status_sh_k'])[:40]} | {r['cpu_sh_k']:.2f} |")
+            f"{100 * r['runout_diff']:+.1f} / {100 * r['runout_diff_k']:+.1f} / "
+            f"{100 * r['runout_diff_ka']:+.1f} % | "
+            f"{100 * r['height_diff']:+.1f} / {100 * r['height_diff_k']:+.1f} / "
+            f"{100 * r['height_diff_ka']:+.1f} % | "
+            f"{str(r['status_sh_k'])[:40]} | {r['cpu_sh_k']:.2f} |"
+        )
     return "\n".join(lines)
 
 
@@ -1206,7 +1217,9 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m studies.ladder")
     parser.add_argument("--quick", action="store_true",
                         help="two tiny cases (3 cm 2D cells; SH Δx 4 mm): the test")
-    parser.add_argument("--out", default="runs/ladder", help="folder of ladder.csv, ladder_series.csv, ladder.png")
+    parser.add_argument(
+        "--out", default="runs/ladder", help="folder of ladder.csv, ladder_series.csv, ladder.png"
+    )
     parser.add_argument("--work", default="runs/ladder", help="folder of the 2D run directories")
     parser.add_argument("--only", nargs="*", default=None, help="run only these cases")
     parser.add_argument("--redo", action="store_true", help="run cases already in the CSV again")

@@ -43,9 +43,16 @@ from dpcollapse.errors import DpcollapseError, Interrupted
 
 #: numerics overrides of each method.
 METHODS = {
-    "picard": ["numerics.method=regularized", "numerics.nonlinear_solver=picard", "numerics.anderson_depth=0"],
-    "picard+anderson": ["numerics.method=regularized", "numerics.nonlinear_solver=picard",
-                        "numerics.anderson_depth=5"],
+    "picard": [
+        "numerics.method=regularized",
+        "numerics.nonlinear_solver=picard",
+        "numerics.anderson_depth=0",
+    ],
+    "picard+anderson": [
+        "numerics.method=regularized",
+        "numerics.nonlinear_solver=picard",
+        "numerics.anderson_depth=5",
+    ],
     "newton": ["numerics.method=regularized", "numerics.nonlinear_solver=newton"],
     "augmented_lagrangian": ["numerics.method=augmented_lagrangian"],
 }
@@ -214,7 +221,9 @@ def run_name(cell: Cell) -> str:
     return f"{cell.method}_eps{eps:g}_dt{cell.dt:g}_dx{cell.mesh_size:g}"
 
 
-def run_cell(base, scene: str, cell: Cell, plan: Plan, out: Path, reference=None, extra=()) -> tuple[Cell, dict]:
+def run_cell(
+    base, scene: str, cell: Cell, plan: Plan, out: Path, reference=None, extra=()
+) -> tuple[Cell, dict]:
     """Run one cell; fills its counts, class-independent fields and returns the compare values."""
     from dpcollapse.simulation import Simulation
 
@@ -289,8 +298,11 @@ def rigid_reference(base, config: Path, plan: Plan, out: Path, log=print) -> dic
     path.write_text(json.dumps({"settings": settings, "front": {str(k): v for k, v in values.items()},
                                 "wall_time": ref_cell.wall_time, "steps": ref_cell.steps,
                                 "factorizations": ref_cell.factorizations}, indent=1))
-    log(f"reference ({plan.reference_method}, dt {dt:g} s, dx {dx:g} m, {' '.join(plan.reference_overrides)}): "
-        f"front {[round(values[t], 5) for t in plan.times]} m, {ref_cell.wall_time:.1f} s")
+    log(
+        f"reference ({plan.reference_method}, dt {dt:g} s, dx {dx:g} m, "
+        f"{' '.join(plan.reference_overrides)}): "
+        f"front {[round(values[t], 5) for t in plan.times]} m, {ref_cell.wall_time:.1f} s"
+    )
     return dict(values)
 
 
@@ -308,7 +320,9 @@ def rescore_rigid(out: Path, plan: Plan) -> list[Cell]:
     ref = stored["settings"]
     ref_cell = Cell("rigid", ref["method"], ref["epsilon"], ref["dt"], ref["mesh_size"])
     front0 = stored["front"]["front0"]
-    reference = fronts_from_diagnostics(out / "runs" / run_name(ref_cell) / "diagnostics.csv", plan.times, front0)
+    reference = fronts_from_diagnostics(
+        out / "runs" / run_name(ref_cell) / "diagnostics.csv", plan.times, front0
+    )
     stored["front"] = {str(k): v for k, v in reference.items()}
     path.write_text(json.dumps(stored, indent=1))
     cells = read_csv(out / "stability_rigid.csv")
@@ -366,10 +380,13 @@ def stability_map(scene: str, config: Path, out: Path, quick: bool = False, plan
 
 def _row(c: Cell) -> str:
     eps = "-" if math.isnan(c.epsilon) else f"{c.epsilon:.0e}"
-    return (f"{c.method:21s} eps {eps:>6s} dt {c.dt:.2e} dx {c.mesh_size:.3g}  {c.cls:9s} "
-            f"error {c.error:.2e}  steps {c.steps:5d} its {c.iterations:6d} LU {c.factorizations:6d} "
-            f"wall {c.wall_time:7.1f} s  fallbacks {c.fallbacks} halved {c.halvings} short {c.short_steps} "
-            f"Courant {c.max_courant:.2g} (bulk {c.courant_dx:.2g})  {('exit %d: ' % c.exit_code + c.reason) if c.exit_code else c.reason}")
+    return (
+        f"{c.method:21s} eps {eps:>6s} dt {c.dt:.2e} dx {c.mesh_size:.3g}  {c.cls:9s} "
+        f"error {c.error:.2e}  steps {c.steps:5d} its {c.iterations:6d} LU {c.factorizations:6d} "
+        f"wall {c.wall_time:7.1f} s  fallbacks {c.fallbacks} halved {c.halvings} short {c.short_steps} "
+        f"Courant {c.max_courant:.2g} (bulk {c.courant_dx:.2g})  "
+        f"{(f'exit {c.exit_code}: ' + c.reason) if c.exit_code else c.reason}"
+    )
 
 
 COLUMNS = ["scene", "method", "epsilon", "dt", "mesh_size", "cls", "exit_code", "reason", "steps",
@@ -419,7 +436,9 @@ def plot(path: Path, cells: list[Cell], plan: Plan, scene: str) -> None:
 
     methods = [m for m in dict.fromkeys(list(plan.methods) + [c.method for c in cells])
                if any(c.method == m for c in cells)]
-    fig, axes = plt.subplots(1, len(methods), figsize=(3.6 * len(methods) + 1, 3.9), sharey=True, squeeze=False)
+    fig, axes = plt.subplots(
+        1, len(methods), figsize=(3.6 * len(methods) + 1, 3.9), sharey=True, squeeze=False
+    )
     sizes = sorted(set(plan.mesh_sizes) | {c.mesh_size for c in cells})
     eps_all = sorted(set(plan.epsilons) | {c.epsilon for c in cells if not math.isnan(c.epsilon)})
     dts = sorted(set(plan.dts) | {c.dt for c in cells})

@@ -51,10 +51,14 @@ from mpi4py import MPI
 
 from dpcollapse.config import Config, load_config, with_overrides
 from dpcollapse.errors import ConfigError, DpcollapseError
-from dpcollapse.reference.bagnold import (bagnold_inertial_number, bagnold_shear_rate,
-                                          bagnold_surface_velocity, bagnold_velocity)
-from dpcollapse.rheology.wellposedness import criterion, high_wavenumber_growth, well_posed_window
+from dpcollapse.reference.bagnold import (
+    bagnold_inertial_number,
+    bagnold_shear_rate,
+    bagnold_surface_velocity,
+    bagnold_velocity,
+)
 from dpcollapse.rheology.choice import law_from_material
+from dpcollapse.rheology.wellposedness import criterion, high_wavenumber_growth, well_posed_window
 from dpcollapse.simulation import Simulation
 
 __all__ = ["WellposedCase", "WellposedPlan", "FULL", "QUICK", "wellposedness_map", "classify",

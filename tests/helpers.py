@@ -2,11 +2,10 @@
 
 import json
 import os
-import tempfile
-
 import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -22,7 +22,6 @@ from dpcollapse.scenes.base import SOLID, BoundaryKind
 from dpcollapse.solvers.assembly import LinearSystem, zero_dirichlet
 from dpcollapse.solvers.linear import DirectSolver
 
-
 #: A nose node closer to landing than this fraction of the step lands within the step.
 LANDING_FRACTION = 0.1
 #: Heights below this fraction of the domain length count as on the bed.

@@ -4,12 +4,13 @@
    polygon (``geometry.polygon``), with the holes a surgery kept. With ``surgery``, a free
    surface that touches the bed or the mass itself is first rebuilt as the union of the mass
    (``geometry.surgery``: pockets kept as holes or closed). Otherwise (surgery off) a free
-   surface folded over itself (a crossing) is untangled first: the smaller loop at each crossing is cut off at the crossing point
-   (``polygon.untangle``; its area is the area change reported). Every existing boundary vertex stays where it is or is
-   dropped; none is moved or snapped, so the toe (the bed/free-surface corner) and the
-   front position are exactly continuous. Long edges are split on the edge (no area
-   change); clustered vertices are dropped only while the total area change stays below
-   a bound (``max_area_change``).
+   surface folded over itself (a crossing) is untangled first: the smaller loop at each
+   crossing is cut off at the crossing point (``polygon.untangle``; its area is the area
+   change reported). Every existing boundary vertex stays where it is or is dropped; none
+   is moved or snapped, so the toe (the bed/free-surface corner) and the front position
+   are exactly continuous. Long edges are split on the edge (no area change); clustered
+   vertices are dropped only while the total area change stays below a bound
+   (``max_area_change``).
 2. Mesh the polygon with gmsh on rank 0 (``geometry.mesher``), distribute.
 3. The model carries its fields across (``models.stokes.state``: ``snapshot`` cell by
    cell, ``transfer`` to the new mesh's dofs).
@@ -24,10 +25,20 @@ import numpy as np
 from dpcollapse import parallel
 from dpcollapse.geometry.boundary_loops import BoundaryLoops
 from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, boundary_edges, mesh_polygon
-from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, chain_loops, clip_right,
-                                         offset_run, polygon_is_simple, remove_spikes, resample,
-                                         signed_area, signed_volume,
-                                         where_it_crosses, untangle)
+from dpcollapse.geometry.polygon import (
+    BoundaryPolygon,
+    chain_boundary,
+    chain_loops,
+    clip_right,
+    offset_run,
+    polygon_is_simple,
+    remove_spikes,
+    resample,
+    signed_area,
+    signed_volume,
+    untangle,
+    where_it_crosses,
+)
 from dpcollapse.geometry.surgery import Surgery, close_small_holes, operate, surgery_needed
 from dpcollapse.scenes.base import thickness_front
 
@@ -70,7 +81,8 @@ def _repaired(all_edges, all_tags, trim_thickness: float) -> _Repaired:
 def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0) -> BoundaryPolygon:
     """With ``trim_thickness`` > 0: untangle a folded free surface (``polygon.untangle``),
     drop hairpin spikes of the surface (``polygon.remove_spikes``), put the underside
-    of a nose closer to the bed than it on the bed and cut off the film ahead of the last point x_f where the mass is at least that thick
+    of a nose closer to the bed than it on the bed and cut off the film ahead of the last
+    point x_f where the mass is at least that thick
     (``scenes.base.thickness_front``) by the vertical x = x_f (tagged free surface; the
     cut face, δ high, slumps a little after each trim). A trim
     that would leave a non-simple polygon (the mass crossing x = x_f several times) is

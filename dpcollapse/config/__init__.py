@@ -17,18 +17,40 @@ time, output) — the sections —, ``root`` (:class:`Config` and its checks acr
 from __future__ import annotations
 
 from dpcollapse.config.fields import Count, Number, PathStr, _f, _fmt, _Section  # noqa: F401
-from dpcollapse.config.files import (MAX_INPUT_BYTES, config_to_dict, from_saved, load_config,  # noqa: F401
-                                     parse_input_yaml, read_input_text, save_config,
-                                     validate_config, with_overrides)
-from dpcollapse.config.geometry import (GEOMETRIES, ColumnGeometry, ErodibleGeometry,  # noqa: F401
-                                        GeometryConfig, LayerGeometry, SiloGeometry,
-                                        TrapezoidGeometry)
-from dpcollapse.config.material import (MATERIALS, DruckerPragerMaterial, MaterialConfig,  # noqa: F401
-                                        MuIMaterial)
+from dpcollapse.config.files import (  # noqa: F401
+                                     MAX_INPUT_BYTES,
+                                     config_to_dict,
+                                     from_saved,
+                                     load_config,
+                                     parse_input_yaml,
+                                     read_input_text,
+                                     save_config,
+                                     validate_config,
+                                     with_overrides,
+)
+from dpcollapse.config.geometry import (  # noqa: F401
+                                     GEOMETRIES,
+                                     ColumnGeometry,
+                                     ErodibleGeometry,
+                                     GeometryConfig,
+                                     LayerGeometry,
+                                     SiloGeometry,
+                                     TrapezoidGeometry,
+)
+from dpcollapse.config.material import MATERIALS, DruckerPragerMaterial, MaterialConfig, MuIMaterial  # noqa: F401
 from dpcollapse.config.messages import RENAMED  # noqa: F401
-from dpcollapse.config.models import (MAX_EXTENT, MAX_GRID_CELLS, MEMORY_PER_CELL, MODELS,  # noqa: F401
-                                      ModelConfig, SavageHutterModel, StokesModel,
-                                      TwoPhaseModel, box_cells, mesh_cells)
+from dpcollapse.config.models import (  # noqa: F401
+                                     MAX_EXTENT,
+                                     MAX_GRID_CELLS,
+                                     MEMORY_PER_CELL,
+                                     MODELS,
+                                     ModelConfig,
+                                     SavageHutterModel,
+                                     StokesModel,
+                                     TwoPhaseModel,
+                                     box_cells,
+                                     mesh_cells,
+)
 from dpcollapse.config.numerics import BoundaryConfig, NumericsConfig  # noqa: F401
 from dpcollapse.config.root import Config  # noqa: F401
 from dpcollapse.config.run import InitialConfig, OutputConfig, TimeConfig  # noqa: F401

@@ -15,7 +15,6 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 
-
 def _as_number(v: Any) -> Any:
     """Accept int/float and numeric strings (YAML 1.1 reads ``1e-3`` as a string); no bools."""
     if isinstance(v, bool) or not isinstance(v, (int, float, str)):

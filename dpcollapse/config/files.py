@@ -4,20 +4,21 @@ from __future__ import annotations
 
 import logging
 import os
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import yaml
 from pydantic import (
     ValidationError,
 )
 
-from dpcollapse.errors import ConfigError
 from dpcollapse.config.fields import _fmt
 from dpcollapse.config.material import MATERIALS, _rheology_of
 from dpcollapse.config.messages import _UNION_TAGS, _UNIONS, _from_validation_error
 from dpcollapse.config.root import Config
 from dpcollapse.config.time_scheme import choose_time_scheme, describe_choice
+from dpcollapse.errors import ConfigError
 
 
 def validate_config(data: Any, base_dir: str | Path | None = None) -> Config:

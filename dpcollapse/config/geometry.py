@@ -14,9 +14,8 @@ from pydantic import (
     model_validator,
 )
 
-from dpcollapse.errors import ConfigError
 from dpcollapse.config.fields import Number, PathStr, _f, _fmt, _Section
-
+from dpcollapse.errors import ConfigError
 
 # geometry: one class per scene (dpcollapse/scenes/), told apart by ``shape``
 
@@ -319,10 +318,10 @@ class ErodibleGeometry(TrapezoidGeometry):
     def _layer_fits(self) -> ErodibleGeometry:
         if self.layer_length - self.layer_thickness / math.tan(math.radians(
                 self.layer_end_angle)) <= self.base_length:
+            least = self.base_length + self.layer_thickness / math.tan(math.radians(self.layer_end_angle))
             raise ConfigError(
                 f"geometry.layer_length = {_fmt(self.layer_length)}: must be > geometry."
-                f"base_length + layer_thickness/tan(layer_end_angle) = "
-                f"{self.base_length + self.layer_thickness / math.tan(math.radians(self.layer_end_angle)):.4g}"
+                f"base_length + layer_thickness/tan(layer_end_angle) = {least:.4g}"
                 " m (the layer's top reaches past the toe)")
         return self
 

@@ -12,8 +12,8 @@ from pydantic import (
     model_validator,
 )
 
-from dpcollapse.errors import ConfigError
 from dpcollapse.config.fields import Number, _f, _fmt, _Section
+from dpcollapse.errors import ConfigError
 
 
 class _Material(_Section):

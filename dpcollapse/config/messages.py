@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from difflib import get_close_matches
-from typing import Sequence
 
 import annotated_types as at
 from pydantic import (
@@ -11,13 +11,12 @@ from pydantic import (
     ValidationError,
 )
 
-from dpcollapse.errors import ConfigError
 from dpcollapse.config.fields import _fmt
 from dpcollapse.config.geometry import GEOMETRIES
 from dpcollapse.config.material import MATERIALS
 from dpcollapse.config.models import MODELS
 from dpcollapse.config.root import Config
-
+from dpcollapse.errors import ConfigError
 
 _TYPE_TEXT = {
     "dp_number": "must be a number",

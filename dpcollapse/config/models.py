@@ -12,8 +12,8 @@ from pydantic import (
     model_validator,
 )
 
-from dpcollapse.errors import ConfigError
 from dpcollapse.config.fields import Count, Number, _f, _fmt, _Section
+from dpcollapse.errors import ConfigError
 
 
 class StokesModel(_Section):
@@ -139,11 +139,13 @@ class TwoPhaseModel(_Section):
         "(docs/benchmarks/2026-12-04-cut-cell-pressure.md)")
     inertia: Literal["velocity", "energy", "mean"] = _f(
         "mean", "", "Densities of the time derivative: energy (rho(c^n) u^{n+1} - "
-        "sqrt(rho(c^n) rho(c^{n-1})) u^n)/dt (the default from 2026-12-05 to 2026-12-07; Guermond & Quartapelle: "
+        "sqrt(rho(c^n) rho(c^{n-1})) u^n)/dt (the default from 2026-12-05 to 2026-12-07; "
+        "Guermond & Quartapelle: "
         "with the skew-symmetric convection the consistent rho Du/Dt) or velocity rho(c^n) "
         "(u^{n+1} - u^n)/dt (the default before: leaves a force (1/2)(d rho/dt) u that pushes "
         "the front, runouts growing with refinement; docs/benchmarks/2026-12-05-two-phase-inertia.md) "
-        "or mean (default since 2026-12-07: rho(c^n) u^{n+1} - (rho(c^n) + rho(c^{n-1}))/2 u^n)/dt: the force (1/2)(d rho/dt) u "
+        "or mean (default since 2026-12-07: rho(c^n) u^{n+1} - (rho(c^n) + rho(c^{n-1}))/2 u^n)/dt: "
+        "the force (1/2)(d rho/dt) u "
         "linear in the step's change of rho, which energy's geometric mean is only for small "
         "ratios (a drag on the front growing with the step: the tall columns 10 % short; "
         "docs/benchmarks/2026-12-07-two-phase-columns-cause.md, 2026-12-07-two-phase-one-answer.md)")

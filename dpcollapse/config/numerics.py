@@ -10,8 +10,8 @@ from pydantic import (
     model_validator,
 )
 
-from dpcollapse.errors import ConfigError
 from dpcollapse.config.fields import Count, Number, _f, _Section
+from dpcollapse.errors import ConfigError
 
 
 class BoundaryConfig(_Section):

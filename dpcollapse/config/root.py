@@ -10,16 +10,15 @@ from pydantic import (
     model_validator,
 )
 
-from dpcollapse.errors import ConfigError
 from dpcollapse.config.fields import _fmt, _Section
 from dpcollapse.config.geometry import GEOMETRIES, GeometryConfig, TrapezoidGeometry
 from dpcollapse.config.material import DruckerPragerMaterial, MaterialConfig
 from dpcollapse.config.models import ModelConfig, StokesModel
-from dpcollapse.config.sizes import first_mesh, refuse_too_large
 from dpcollapse.config.numerics import BoundaryConfig, NumericsConfig
 from dpcollapse.config.run import InitialConfig, OutputConfig, TimeConfig
+from dpcollapse.config.sizes import first_mesh, refuse_too_large
 from dpcollapse.config.time_scheme import supports_bdf2
-
+from dpcollapse.errors import ConfigError
 
 #: numerics.nonlinear_atol = null: the fixed point's absolute stop as a fraction of the
 #: error-controlled step's time.tolerance (measured on configs/rigid.yaml, 0.1 … 1 all meet

@@ -11,8 +11,8 @@ from pydantic import (
     model_validator,
 )
 
-from dpcollapse.errors import ConfigError
 from dpcollapse.config.fields import Count, Number, PathStr, _f, _fmt, _Section
+from dpcollapse.errors import ConfigError
 
 
 class InitialConfig(_Section):

@@ -11,7 +11,8 @@ cells of the half plane around the piece, h = h_f + k ρ at the distance ρ from
              = ℓ δ / (√3/4 h_f h) + π/(√3/4 k²) (ln(h/h_f) + h_f/h − 1)
 
 (:func:`graded_cells`; measured against gmsh on the silo and the hopper, orifice cells of
-2e-5 … 2.5e-3 m: 0.7 … 1.3 times the cells gmsh made, docs/benchmarks/2026-12-07-sizes.md): the orifice of a silo (``geometry.orifice_mesh_size``), the free
+2e-5 … 2.5e-3 m: 0.7 … 1.3 times the cells gmsh made, docs/benchmarks/2026-12-07-sizes.md): the orifice
+of a silo (``geometry.orifice_mesh_size``), the free
 surface of the moving mesh (``geometry.surface_mesh_size``). The adaptive two-phase box
 (``model.min_cell`` < ``model.max_cell``) has h_min in the granular material (area A_g,
 perimeter P) and in its band b = ``refine_band`` h_min, grows at the rate

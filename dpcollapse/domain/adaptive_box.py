@@ -31,10 +31,19 @@ from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from dpcollapse import compat
-from dpcollapse.domain.fixed import FixedDomain
-from dpcollapse.geometry.mesher import (BED, DOMAIN, LEFT, RIGHT, SURFACE, TAG_NAMES, TaggedMesh,
-                                        generate_bounded, gmsh_session)
 from dpcollapse.ale.quality import signed_areas
+from dpcollapse.domain.fixed import FixedDomain
+from dpcollapse.geometry.mesher import (
+    BED,
+    DOMAIN,
+    LEFT,
+    RIGHT,
+    SURFACE,
+    TAG_NAMES,
+    TaggedMesh,
+    generate_bounded,
+    gmsh_session,
+)
 from dpcollapse.geometry.regions import cell_triangles as owned_triangles
 
 #: a granular cell larger than this many h_min (equilateral side of its area) triggers a remesh
@@ -114,8 +123,10 @@ def adaptive_box(comm, length: float, height: float, size: SizeField,
         sizes = size(grid.reshape(-1, 2), granular).reshape(-1, 3)
         with gmsh_session() as gmsh:
             generate_bounded(gmsh, lambda g: _build_box_model(g, length, height, grid, sizes,
-                                                             size.max_cell))   # exit 4, no hang
-            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2, shared_facets=True)
+                                                             size.max_cell))  # exit 4, no hang
+            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(
+                gmsh.model, comm, 0, gdim=2, shared_facets=True
+            )
     else:
         mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2, shared_facets=True)
     mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)

@@ -9,9 +9,9 @@ polygon vertex becomes a gmsh point, so the meshed boundary contains the polygon
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 from mpi4py import MPI

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import heapq
 import math
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Callable, Iterable
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -20,7 +20,8 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 __all__ = ["BoundaryPolygon", "chain_boundary", "chain_loops", "resample", "polygon_is_simple",
-           "segments_intersect", "untangle", "remove_spikes", "clip_half_plane", "clip_right", "offset_run", "signed_area", "signed_volume"]
+           "segments_intersect", "untangle", "remove_spikes", "clip_half_plane", "clip_right", "offset_run",
+           "signed_area", "signed_volume"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -400,7 +401,8 @@ def offset_run(points: np.ndarray, edge_tags: np.ndarray, tag: int,
                area_change: float, movable: np.ndarray | None = None,
                measure=signed_area) -> np.ndarray:
     """Move the vertices inside the runs of edges tagged ``tag`` (both adjacent edges of
-    that tag; corners stay; only where ``movable``, a boolean mask, when given) along their outward normal (the mean of the two edge normals
+    that tag; corners stay; only where ``movable``, a boolean mask, when given) along their outward
+    normal (the mean of the two edge normals
     of a CCW polygon) by one distance s chosen so that the signed area changes by
     ``area_change`` (secant steps on A(s), which is quadratic in s, to round-off).
     ``measure``: ``signed_area`` or ``signed_volume`` (the body of revolution's, cubic in s:

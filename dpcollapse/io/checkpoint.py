@@ -1,7 +1,8 @@
 """Hand-written checkpoints (this DOLFINx build has no ADIOS2).
 
 A checkpoint holds the whole current mesh (global node coordinates, cells, their material
-region tags, tagged boundary edges), the accepted state uⁿ (P2) and pⁿ (P1) cell by cell, and the time-loop counters.
+region tags, tagged boundary edges), the accepted state uⁿ (P2) and pⁿ (P1) cell by cell, and the
+time-loop counters.
 It is written by rank 0 to ``checkpoint.npz`` through a temporary file and a rename, so
 the file on disk is always a complete checkpoint. Because fields are stored cell by cell
 on the global mesh, a run may be resumed on a different number of MPI ranks.
@@ -21,7 +22,6 @@ from dpcollapse.geometry.mesher import DOMAIN, TaggedMesh
 from dpcollapse.geometry.regions import region_field, tag_cells
 from dpcollapse.io.durable import fsync_path
 from dpcollapse.transfer import CellwiseField
-
 
 #: the loaded state's entry listing the histories the checkpoint did not carry (an older
 #: version's checkpoint): the resumed steps then differ from the uninterrupted run's, and the

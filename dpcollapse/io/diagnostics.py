@@ -11,8 +11,20 @@ from dpcollapse.errors import OutputError
 from dpcollapse.io.presence import DirectoryPresence
 
 COLUMNS = [
-    "step", "t", "dt", "dt_limit", "courant", "iterations", "residual", "front", "max_height", "kinetic_energy",
-    "area", "max_speed", "remeshes", "wall_time",
+    "step",
+    "t",
+    "dt",
+    "dt_limit",
+    "courant",
+    "iterations",
+    "residual",
+    "front",
+    "max_height",
+    "kinetic_energy",
+    "area",
+    "max_speed",
+    "remeshes",
+    "wall_time",
     "thick_front",
 ]
 

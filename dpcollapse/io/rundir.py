@@ -179,7 +179,7 @@ class RunDirectory:
                 os.close(self._lock_fd)
                 self._lock_fd = None
 
-    def __enter__(self) -> "RunDirectory":
+    def __enter__(self) -> RunDirectory:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -40,12 +40,12 @@ import copy
 import errno
 import logging
 import os
-import tempfile
-from contextlib import contextmanager
 import re
+import tempfile
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Sequence
 
 import h5py
 from mpi4py import MPI

@@ -42,8 +42,8 @@ plasticity) is handled too; then, for non-decreasing ``U0``, the discrete soluti
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 from scipy.linalg import solve_banded

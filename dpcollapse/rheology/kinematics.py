@@ -30,7 +30,8 @@ def regularized_secant(yield_stress, rate_viscosity, u, epsilon, cap=None, coord
     """S = min(κ/√(|D(u)|² + ε²) + 2η, 2η_max) [Pa s]: the coefficient of D(v) in the Picard
     linearization of σ' = κ D/|D| + 2η D (no min when ``cap`` η_max is None); D(u) that of
     ``coordinates`` (``rheology.coordinates``: with the hoop rate u_r/r when axisymmetric)."""
-    S = yield_stress / ufl.sqrt(frobenius_norm_sq(coordinates.strain_rate(u)) + epsilon**2) + 2.0 * rate_viscosity
+    rate_sq = frobenius_norm_sq(coordinates.strain_rate(u))
+    S = yield_stress / ufl.sqrt(rate_sq + epsilon**2) + 2.0 * rate_viscosity
     if cap is not None:
         S = ufl.min_value(S, 2.0 * cap)
     return S

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar, Optional
+from typing import ClassVar
 
 import numpy as np
 import ufl
@@ -77,7 +77,7 @@ class MuI:
     grain_diameter: float
     grain_density: float
     cohesion: float = 0.0
-    viscosity_cap: Optional[float] = None
+    viscosity_cap: float | None = None
     #: planar or axisymmetric (``rheology.coordinates``): D(u), |D| and I with the hoop rate
     coordinates: Planar = PLANAR
 
@@ -144,7 +144,11 @@ class MuI:
         Same floor as the UFL version, so p ≤ 0 gives a large finite I (not inf/NaN)."""
         gamma_dot = np.abs(np.asarray(gamma_dot, dtype=float))
         p = np.asarray(p, dtype=float)
-        I = self.grain_diameter * gamma_dot / np.sqrt((np.maximum(p, 0.0) + self.pressure_floor) / self.grain_density)
+        I = (
+            self.grain_diameter
+            * gamma_dot
+            / np.sqrt((np.maximum(p, 0.0) + self.pressure_floor) / self.grain_density)
+        )
         return float(I) if I.ndim == 0 else I
 
     # ------------------------------------------------------------------ UFL
@@ -166,7 +170,11 @@ class MuI:
         """η_μI = (μ_2 − μ_s)[p]_+ / (√2|D|_ε + I0 √([p]_+/ρ_s)/d)  [Pa s] (uncapped)."""
         D = self.coordinates.strain_rate(u)
         rate = SQRT2 * ufl.sqrt(frobenius_norm_sq(D) + epsilon**2)
-        return self.delta_mu * positive_part(p) / (rate + self.I0 * self._sqrt_p_over_rho(p) / self.grain_diameter)
+        return (
+            self.delta_mu
+            * positive_part(p)
+            / (rate + self.I0 * self._sqrt_p_over_rho(p) / self.grain_diameter)
+        )
 
     def capped_rate_viscosity(self, u, p, epsilon):
         """min(η_μI, η_max) [Pa s] (η_μI when viscosity_cap is None)."""

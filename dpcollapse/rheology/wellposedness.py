@@ -52,7 +52,9 @@ def well_posed_window(law, I_range=(_I_LO, _I_HI), n_grid=_N_GRID):
     f = lambda x: criterion(law, x)  # noqa: E731
     first, last = np.flatnonzero(neg)[[0, -1]]
     I_min = grid[0] if first == 0 else brentq(f, grid[first - 1], grid[first], xtol=1e-14, rtol=1e-12)
-    I_max = grid[-1] if last == len(grid) - 1 else brentq(f, grid[last], grid[last + 1], xtol=1e-14, rtol=1e-12)
+    I_max = (
+        grid[-1] if last == len(grid) - 1 else brentq(f, grid[last], grid[last + 1], xtol=1e-14, rtol=1e-12)
+    )
     return (float(I_min), float(I_max))
 
 

@@ -30,7 +30,6 @@ from typing import Protocol
 import numpy as np
 
 from dpcollapse.fronts import front_thickness
-from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.geometry.mesher import (
     BED,
     LEFT,
@@ -42,9 +41,10 @@ from dpcollapse.geometry.mesher import (
     read_msh,
     write_polygon_msh,
 )
+from dpcollapse.geometry.rectangle import structured_rectangle
 
 
-class BoundaryKind(str, Enum):
+class BoundaryKind(str, Enum):  # noqa: UP042 (StrEnum would change str() of a kind)
     NO_SLIP = "no_slip"
     COULOMB = "coulomb"
     SLIP = "slip"

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from dpcollapse.geometry.mesher import (
+    BED,
     DOMAIN,
     INTERFACE,
     LAYER,
@@ -32,7 +33,6 @@ from dpcollapse.geometry.mesher import (
     read_msh,
     write_regions_msh,
 )
-from dpcollapse.geometry.mesher import BED
 from dpcollapse.scenes.base import (
     Boundary,
     Container,

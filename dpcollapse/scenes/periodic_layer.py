@@ -13,7 +13,6 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.geometry.mesher import (
     BED,
     DOMAIN,
@@ -25,6 +24,7 @@ from dpcollapse.geometry.mesher import (
     gmsh_session,
     read_msh,
 )
+from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.scenes.base import (
     Boundary,
     BoundaryKind,

@@ -15,7 +15,6 @@ import numpy as np
 
 from dpcollapse.geometry.mesher import BED, SURFACE, WALL
 from dpcollapse.scenes.base import (
-    walled_boundaries,
     Boundary,
     Container,
     PolygonScene,
@@ -24,8 +23,8 @@ from dpcollapse.scenes.base import (
     initial_velocity,
     open_box_boundaries,
     top_extent,
+    walled_boundaries,
 )
-
 
 
 def trapezoid_polygon(height: float, base_length: float, flank_angle_deg: float):

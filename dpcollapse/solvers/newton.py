@@ -20,7 +20,7 @@ SNES time is booked under "solve"}, and ``history``: (iteration, ‖F‖₂) of 
 from __future__ import annotations
 
 import time
-from typing import Callable
+from collections.abc import Callable
 
 from petsc4py import PETSc
 

@@ -36,7 +36,7 @@ from __future__ import annotations
 import importlib.util
 import os
 import time
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from dolfinx import fem
@@ -46,7 +46,6 @@ from petsc4py import PETSc
 
 from dpcollapse import compat
 from dpcollapse.solvers.periodic_sides import leaf_subspaces, periodic_sides  # noqa: F401 (leaf_subspaces: re-exported)
-
 
 #: Environment variable choosing the periodic constraint: "auto" (dolfinx_mpc where it is
 #: installed, else ``solvers.periodic_petsc``), "dolfinx_mpc" or "petsc".

@@ -28,7 +28,7 @@ bed keep their bc.
 from __future__ import annotations
 
 import time
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from dolfinx import fem

@@ -5,7 +5,7 @@ to constrain."""
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from dolfinx import fem

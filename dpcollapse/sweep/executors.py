@@ -461,13 +461,25 @@ def write_slurm(sweep: Sweep, out: Path, sweep_args: list[str], jobs: int | None
         f"# Submit: {submit_hint(array, out / 'collect.sbatch')}",
         "set -eu", *s.setup, *env, f"cd {shlex.quote(os.getcwd())}", f"exec {task}", ""]))
     coll = out / "collect.sbatch"
-    write_atomic(coll, "\n".join([
-        "#!/bin/bash", f"#SBATCH --job-name={_sbatch_quote('collect-' + sweep.path.stem)}", "#SBATCH --ntasks=1",
-        *[h for h in header if h.startswith(("#SBATCH --partition", "#SBATCH --account"))],
-        f"#SBATCH --output={_sbatch_quote(f'{out}/logs/slurm-collect-%j.out')}",
-        "# After the array: writes sweep.csv and the progress line.",
-        "set -eu", *s.setup, *env, f"cd {shlex.quote(os.getcwd())}",
-        f"exec {shlex.join(common + ['--collect'])}", ""]))
+    write_atomic(
+        coll,
+        "\n".join(
+            [
+                "#!/bin/bash",
+                f"#SBATCH --job-name={_sbatch_quote('collect-' + sweep.path.stem)}",
+                "#SBATCH --ntasks=1",
+                *[h for h in header if h.startswith(("#SBATCH --partition", "#SBATCH --account"))],
+                f"#SBATCH --output={_sbatch_quote(f'{out}/logs/slurm-collect-%j.out')}",
+                "# After the array: writes sweep.csv and the progress line.",
+                "set -eu",
+                *s.setup,
+                *env,
+                f"cd {shlex.quote(os.getcwd())}",
+                f"exec {shlex.join(common + ['--collect'])}",
+                "",
+            ]
+        ),
+    )
     array.chmod(0o755)
     coll.chmod(0o755)
     return array, coll

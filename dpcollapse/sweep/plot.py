@@ -77,7 +77,10 @@ def plot_sweep(sweep_dir: Path, x: str, y: str = "runout", by: str | None = None
         groups.setdefault(tuple(r[k] for k in ([by] if by else []) + others), []).append(r)
     fig, ax = plt.subplots(figsize=(7, 4.5))
     markers = "os^Dv<>ph*"
-    short = lambda k: k.rpartition(".")[2]
+
+    def short(k):
+        return k.rpartition(".")[2]
+
     # colour: the value of --by; line style and marker: the other varied parameters
     colours = list(dict.fromkeys(k[0] for k in groups)) if by else [()]
     styles = list(dict.fromkeys(k[1:] if by else k for k in groups))

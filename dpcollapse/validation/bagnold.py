@@ -44,11 +44,15 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.config import Config, load_config, with_overrides
 from dpcollapse.errors import ConfigError
-from dpcollapse.reference.bagnold import (bagnold_inertial_number, bagnold_shear_rate,
-                                          bagnold_surface_velocity, bagnold_velocity)
+from dpcollapse.models.stokes.discretization import rheology
+from dpcollapse.reference.bagnold import (
+    bagnold_inertial_number,
+    bagnold_shear_rate,
+    bagnold_surface_velocity,
+    bagnold_velocity,
+)
 from dpcollapse.rheology.mu_i import MuI
 from dpcollapse.rheology.wellposedness import criterion, fraction_ill_posed, well_posed_window
-from dpcollapse.models.stokes.discretization import rheology
 from dpcollapse.simulation import Simulation
 from dpcollapse.validation.plug import observed_order
 

@@ -23,8 +23,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from dpcollapse.config import Config, load_config, with_overrides
-from dpcollapse.reference.plug1d import (PlugFlowProblem, PlugFlowSolution, half_poiseuille,
-                                         solve_plug_flow)
+from dpcollapse.reference.plug1d import PlugFlowProblem, PlugFlowSolution, half_poiseuille, solve_plug_flow
 from dpcollapse.simulation import Simulation
 
 #: Flowing threshold of seed 000 [m/s].
@@ -38,7 +37,9 @@ def plug_problem(cfg: Config) -> PlugFlowProblem:
                            density=m.density, thickness=cfg.geometry.height, gravity=m.gravity)
 
 
-def reference_solution(cfg: Config, t_end: float, times, dt: float = 1e-4, nz: int = 2000) -> PlugFlowSolution:
+def reference_solution(
+    cfg: Config, t_end: float, times, dt: float = 1e-4, nz: int = 2000
+) -> PlugFlowSolution:
     """The 1D reference on a fine grid, stored every 5 ms and at ``times``."""
     problem = plug_problem(cfg)
     us = cfg.initial.surface_speed
@@ -191,7 +192,9 @@ def validate_plug(config: Path, out_dir: Path, quick: bool = False, log=print) -
     results = {"epsilon": [], "space": [], "time": []}
     for eps in plan.epsilons:
         mesh, dt = (plan.time_mesh, plan.dts[-1]) if quick else (h0, dt0)
-        r = run_case(_cfg(base, eps, mesh, dt), reference, plan.times, out_dir / f"eps_{eps:g}", f"eps={eps:g}")
+        r = run_case(
+            _cfg(base, eps, mesh, dt), reference, plan.times, out_dir / f"eps_{eps:g}", f"eps={eps:g}"
+        )
         results["epsilon"].append(r)
         log(_row(r))
     eps_conv = 1e-6
@@ -206,7 +209,9 @@ def validate_plug(config: Path, out_dir: Path, quick: bool = False, log=print) -
         results["time"].append(r)
         log(_row(r))
     orders = {
-        "space": observed_order([r.mesh_size for r in results["space"]], [r.mean_error for r in results["space"]]),
+        "space": observed_order(
+            [r.mesh_size for r in results["space"]], [r.mean_error for r in results["space"]]
+        ),
         "time": observed_order([r.dt for r in results["time"]], [r.mean_error for r in results["time"]]),
     }
     log(f"observed order: space {orders['space']:.2f}, time {orders['time']:.2f}")
@@ -245,7 +250,9 @@ def _plot(path: Path, results: dict, reference: PlugFlowSolution, plan: PlugPlan
     fig, ax = plt.subplots(2, 2, figsize=(11, 8.5))
     rs = results["epsilon"]
     for t in plan.times:
-        ax[0, 0].loglog([r.epsilon for r in rs], [r.errors.get(t, math.nan) for r in rs], "o-", label=f"t = {t:g} s")
+        ax[0, 0].loglog(
+            [r.epsilon for r in rs], [r.errors.get(t, math.nan) for r in rs], "o-", label=f"t = {t:g} s"
+        )
     ax[0, 0].set_xlabel("ε [1/s]")
     ax[0, 0].set_ylabel("relative L² error of u_x")
     ax[0, 0].set_title("Error against the 1D reference vs ε")

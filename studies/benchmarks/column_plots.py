@@ -69,7 +69,11 @@ def fit_text(a: np.ndarray, y: np.ndarray, cut: float, above: bool, padding: boo
     p = fit(a[sel], y[sel])
     side = f"a ≥ {cut}" if above else f"a ≤ {cut}"
     side = f"{side:8s}:" if padding else f"{side}:"
-    return side + " " + (f"{p[0]:.2f} a^{p[1]:.2f} ({sel.sum()} points)" if p else f"{sel.sum()} point(s), no fit")
+    return (
+        side
+        + " "
+        + (f"{p[0]:.2f} a^{p[1]:.2f} ({sel.sum()} points)" if p else f"{sel.sum()} point(s), no fit")
+    )
 
 
 def experimental_laws(ax1, ax2) -> None:
@@ -102,9 +106,11 @@ def law_plot(sweep_dir: Path, out: Path, scaled_time: float | None = None) -> No
     if scaled_time is not None:
         rows = [at_scaled_time(sweep_dir, r, scaled_time) for r in rows]
     for r in rows:
-        print(f"a = {float(r[H0_KEY]) / 0.1:5.2f}: {r['status']:8s} ΔL/L0 mass "
-              f"{(float(r['front']) - 0.1) / 0.1:.2f}, thickness {(float(r['thick_front']) - 0.1) / 0.1:.2f}, "
-              f"H_f/L0 {float(r['max_height']) / 0.1:.3f}")
+        print(
+            f"a = {float(r[H0_KEY]) / 0.1:5.2f}: {r['status']:8s} ΔL/L0 mass "
+            f"{(float(r['front']) - 0.1) / 0.1:.2f}, thickness {(float(r['thick_front']) - 0.1) / 0.1:.2f}, "
+            f"H_f/L0 {float(r['max_height']) / 0.1:.3f}"
+        )
     l0 = 0.1
     groups: dict[tuple[str, str], list[dict]] = {}
     for r in rows:
@@ -127,10 +133,13 @@ def law_plot(sweep_dir: Path, out: Path, scaled_time: float | None = None) -> No
         if ended.any():
             ax1.loglog(a[ended], run[ended], "o", mfc="white", mec="k", label="not at rest at the end time")
             ax2.loglog(a[ended], hf[ended], "o", mfc="white", mec="k", label="not at rest at the end time")
-        for name, x, y, cut, above in (("ΔL/L0 thick", a, run, 3.0, False), ("ΔL/L0 thick", a, run, 3.0, True),
-                                       ("ΔL/L0 mass", a, run_mass, 3.0, False),
-                                       ("ΔL/L0 mass", a, run_mass, 3.0, True),
-                                       ("H_f/L0", a, hf, 0.7, True)):
+        for name, x, y, cut, above in (
+            ("ΔL/L0 thick", a, run, 3.0, False),
+            ("ΔL/L0 thick", a, run, 3.0, True),
+            ("ΔL/L0 mass", a, run_mass, 3.0, False),
+            ("ΔL/L0 mass", a, run_mass, 3.0, True),
+            ("H_f/L0", a, hf, 0.7, True),
+        ):
             print(f"{bed:8s} h={h:5s} {name:12s} {fit_text(x, y, cut, above)}")
     experimental_laws(ax1, ax2)
     if scaled_time is not None:

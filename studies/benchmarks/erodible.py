@@ -71,7 +71,9 @@ def run(config: str, out: str, overrides: list[str]) -> int:
         summary = sim.run()
     except DpcollapseError as exc:
         code, error = exc.exit_code, str(exc)
-        summary = json.loads((Path(out) / "run.json").read_text())["summary"] if MPI.COMM_WORLD.rank == 0 else None
+        summary = (
+            json.loads((Path(out) / "run.json").read_text())["summary"] if MPI.COMM_WORLD.rank == 0 else None
+        )
     if MPI.COMM_WORLD.rank != 0:
         return code
     if "edges" in last and (not profiles or profiles[-1][0] != last["edges"][0]):

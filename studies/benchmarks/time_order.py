@@ -10,10 +10,12 @@ Each RUN is a run directory of ``dpcollapse run`` with ``RUN.time`` beside it (t
 interpolated linearly at t = 0.1, 0.2, …, 0.9 s (x_f(0) = l0 = 0.297 m before the first
 step). The Δt → 0 reference is Richardson's extrapolation of the two first-order runs
 RUN_DT, RUN_DT2 (steps Δt and Δt/2): x_ref = 2 x(Δt/2) − x(Δt) (``--order p``:
-x(Δt/2) + (x(Δt/2) − x(Δt))/(2^p − 1)), its uncertainty |x(Δt/2) − x(Δt)| (dotted). Per run: max_t |x_f(t) − x_ref(t)| [m], the deposit front, steps, LU
+x(Δt/2) + (x(Δt/2) − x(Δt))/(2^p − 1)), its uncertainty |x(Δt/2) − x(Δt)| (dotted). Per run: max_t
+|x_f(t) − x_ref(t)| [m], the deposit front, steps, LU
 factorizations of the flow, rejected steps, CPU time (user + system) [s] and run.json's
 ``total`` [s]. The chart: error against CPU time and against factorizations (log-log) per
-family (``bdf1``/``bdf2`` fixed Δt, ``tol``/``tolmax`` error-controlled in the rms/max norm; ``newton:…`` and ``al:…`` for
+family (``bdf1``/``bdf2`` fixed Δt, ``tol``/``tolmax`` error-controlled in the rms/max norm; ``newton:…``
+and ``al:…`` for
 Newton and the augmented Lagrangian, by colour), and error against Δt for the fixed-step
 families with the least-squares slope. ``--reference-run`` takes one run as the
 reference instead (a much finer one; ``--reference-check`` a coarser run of its family, whose

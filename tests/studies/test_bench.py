@@ -8,8 +8,15 @@ import math
 import numpy as np
 import pytest
 
-from studies.bench import (COLUMNS, PARTS, Instrument, default_configs_dir,
-                              fitted_exponent, instrumented_simulation, load_case_config)
+from studies.bench import (
+    COLUMNS,
+    PARTS,
+    Instrument,
+    default_configs_dir,
+    fitted_exponent,
+    instrumented_simulation,
+    load_case_config,
+)
 from studies.cli import main
 
 

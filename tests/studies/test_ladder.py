@@ -8,8 +8,8 @@ import math
 
 import numpy as np
 
-from studies.cli import main as cli_main
 from studies import ladder
+from studies.cli import main as cli_main
 
 
 def test_ladder_quick(tmp_path):

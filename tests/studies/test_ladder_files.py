@@ -11,8 +11,8 @@ import shutil
 
 import pytest
 
-from studies.cli import main
 from studies import ladder
+from studies.cli import main
 from tests.helpers import ROOT
 
 FIGURES = ROOT / "docs" / "figures"

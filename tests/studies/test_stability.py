@@ -28,7 +28,8 @@ def quick_map(tmp_path_factory):
 def test_quick_map_classes(quick_map):
     """At t = 0.8 s (ΔX 1 cm, Δt 4 ms, tolerance 3e-2): ε = 1e-1 converges but is wrong
     (regularization error 6e-2), Newton at ε = 1e-6 is accurate (1.6e-2), and plain Picard
-    needs thousands of iterations after the static layer appears: too slow at a 4 CPU-second cap (Newton: about 1 s)."""
+    needs thousands of iterations after the static layer appears: too slow at a 4 CPU-second cap (Newton:
+    about 1 s)."""
     out, rows = quick_map
     assert rows[("newton", 0.1)]["class"] == "wrong"
     assert float(rows[("newton", 0.1)]["error"]) > 3e-2

@@ -152,7 +152,11 @@ def test_side_wall_friction_matches_regularized(tmp_path):
     over = ["geometry.mesh_size=0.02", "time.end_time=0.2", "time.output_every=1000",
             "time.checkpoint_every=1000"]
     results = {}
-    for name, extra in (("al", AL), ("regularized", []), ("al_no_walls", AL + ["boundary.channel_width=null"])):
+    for name, extra in (
+        ("al", AL),
+        ("regularized", []),
+        ("al_no_walls", AL + ["boundary.channel_width=null"]),
+    ):
         sim = _sim("slope19_dp.yaml", over + extra, tmp_path / name, comm=MPI.COMM_SELF)
         results[name] = sim.run()
     al, reg, free = results["al"], results["regularized"], results["al_no_walls"]

@@ -9,8 +9,8 @@ from mpi4py import MPI
 
 from dpcollapse.cli import main
 from dpcollapse.config import load_config
-from dpcollapse.models.stokes.discretization import flow_parameters, initial_velocity, picard_settings
 from dpcollapse.io.diagnostics import read_diagnostics
+from dpcollapse.models.stokes.discretization import flow_parameters, initial_velocity, picard_settings
 from dpcollapse.models.stokes.regularized import RegularizedFlow
 from dpcollapse.scenes.registry import build_mesh
 from dpcollapse.simulation import Simulation

@@ -20,7 +20,6 @@ from pathlib import Path
 
 import pytest
 
-
 from tests.helpers import OVERSUBSCRIBE, ROOT, clean_env
 from tests.system.test_faults import small_disk  # noqa: F401  (a fixture)
 

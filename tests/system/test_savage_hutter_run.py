@@ -146,7 +146,9 @@ def test_interrupt_then_resume_reproduces_the_uninterrupted_run(tmp_path):
     over = SMALL + ["time.end_time=0.3"]
     full = simulation(COLUMN, over, tmp_path / "full", comm=MPI.COMM_SELF).run()
     events = Events()
-    events.subscribe("step_accepted", lambda sim, row: row["step"] == 37 and os.kill(os.getpid(), signal.SIGINT))
+    events.subscribe(
+        "step_accepted", lambda sim, row: row["step"] == 37 and os.kill(os.getpid(), signal.SIGINT)
+    )
     split = tmp_path / "split"
     with pytest.raises(Interrupted) as stop:
         simulation(COLUMN, over, split, comm=MPI.COMM_SELF, events=events).run()
@@ -156,7 +158,10 @@ def test_interrupt_then_resume_reproduces_the_uninterrupted_run(tmp_path):
     resumed = simulation(COLUMN, over, split, comm=MPI.COMM_SELF, resume=True).run()
     for key in ("status", "t", "steps", "front", "max_height", "kinetic_energy", "area", "wet_front"):
         assert resumed[key] == full[key], key
-    a, b = read_diagnostics(tmp_path / "full" / "diagnostics.csv"), read_diagnostics(split / "diagnostics.csv")
+    a, b = (
+        read_diagnostics(tmp_path / "full" / "diagnostics.csv"),
+        read_diagnostics(split / "diagnostics.csv"),
+    )
     for key in ("t", "dt", "front", "max_height", "kinetic_energy", "max_speed"):
         np.testing.assert_array_equal(a[key], b[key], err_msg=key)
     np.testing.assert_array_equal(_final_profile(tmp_path / "full")[2], _final_profile(split)[2])

@@ -116,7 +116,10 @@ cases:
                                "boundary.channel_width=0.1")
     assert first.config["time"]["end_time"] == 0.1 and first.config["geometry"]["mesh_size"] == 0.05
     assert first.name == "bed_angle=0__dt=0.001__dt_min=1.0e-06__channel_width=0.1"
-    assert sw.cases[1].name == "bed_angle=0__dt=0.001__dt_min=1.0e-06__open" and sw.cases[1].config["boundary"]["channel_width"] is None
+    assert (
+        sw.cases[1].name == "bed_angle=0__dt=0.001__dt_min=1.0e-06__open"
+        and sw.cases[1].config["boundary"]["channel_width"] is None
+    )
     assert [c.params["geometry.bed_angle"] for c in sw.cases] == [0] * 4 + [5] * 4
     assert len({c.name for c in sw.cases}) == 8 and all(is_safe_name(c.name) for c in sw.cases)
 
@@ -467,7 +470,10 @@ def test_a_key_added_since_the_run_keeps_the_case_done(local_sweep, tmp_path):
     proc = _run(PY + ["sweep", path, "--out", copy, "--dry-run"])
     assert proc.returncode == 0, proc.stderr
     assert "friction_angle=30: done" in proc.stdout, proc.stdout
-    for change in ({"rest_energy_fraction": 0.1}, {"a_key_since_removed": 1}):   # the latter: compared as written
+    for change in (
+        {"rest_energy_fraction": 0.1},
+        {"a_key_since_removed": 1},
+    ):  # the latter: compared as written
         run["config"]["time"] = {**run["config"]["time"], **change}
         run_json.write_text(json.dumps(run))
         proc = _run(PY + ["sweep", path, "--out", copy, "--dry-run"])

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from dpcollapse.domain.adaptive_box import REFINED
 from dpcollapse.io.diagnostics import read_diagnostics
 from dpcollapse.loop import Events
-from dpcollapse.domain.adaptive_box import REFINED
 from tests.helpers import paraview_summaries, simulation
 
 CONFIG = "column_eulerian_a0.5.yaml"

@@ -18,7 +18,8 @@ SMALL = ["geometry.mesh_size=0.01", "time.output_every=50", "time.checkpoint_eve
 
 def test_column_spreads_on_the_fixed_box(tmp_path):
     """a = 0.5 to t = 0.2 s at 1 cm: the mass front passes L0 + L0/4, the thickness front
-    follows it (within a cell and a half), the area drift is below 1e-6, c stays within [0, 1.05] and the run wrote its
+    follows it (within a cell and a half), the area drift is below 1e-6, c stays within [0, 1.05] and the run
+    wrote its
     fields (c, velocity, pressure, inertial number). At Δt = 5 ms, so that the advection of c
     sub-cycles (at 1 ms and the energy-consistent inertia it needs one sub-step each)."""
     summary = simulation(CONFIG, SMALL + ["time.end_time=0.2", "time.dt=5e-3"], tmp_path,
@@ -136,7 +137,8 @@ HEAP = ["time.scheme=bdf1", "time.tolerance=null", "model.name=two_phase", "nume
 
 def test_a_heap_below_the_friction_angle_holds_only_with_the_grains_yield_stress(tmp_path):
     """model.yield_weighting: with the grains' own yield stress in every cell with grains
-    (grains) the heap stays at rest (measured 5e-4 mm/s after the start); with the volume-weighted c κ(p) (the default before 2026-12-04) its flank flows (measured
+    (grains) the heap stays at rest (measured 5e-4 mm/s after the start); with the volume-weighted c κ(p)
+    (the default before 2026-12-04) its flank flows (measured
     30 mm/s at 0.1–0.25 s: cut cells with c < tan θ/μ_s cannot hold). Measured with the total
     pressure read pointwise (the defaults before 2026-12-05), which this test keeps."""
     speeds = {}
@@ -157,7 +159,8 @@ def test_a_heap_below_the_friction_angle_holds_only_with_the_grains_yield_stress
 
 
 def test_a_heap_holds_under_the_effective_pressure_read_at_cut_cells_centroids(tmp_path):
-    """model.cut_cell_pressure (centroid the default since 2026-12-05): with the effective pressure (the light fluid's weight taken
+    """model.cut_cell_pressure (centroid the default since 2026-12-05): with the effective pressure (the
+    light fluid's weight taken
     out) read pointwise, the heap's cut cells have p − p_a ≤ 0 above the grains and settle
     (measured 1.87 mm/s at first, 0.47 mm/s at 0.3 s); read at the cut cells' centroids (the
     walls' friction at the wall) the heap holds within issue 27's 1 mm/s (measured 0.47 mm/s

@@ -57,7 +57,9 @@ def test_vtx_series_follows_the_moving_mesh_through_a_remesh(tmp_path):
     assert "strain_rate" in first_cells["cell_arrays"]
     # same mesh and values as the XDMF at the same times
     assert first_nodes["first"]["num_cells"] == xdmf["first"]["num_cells"]
-    assert first_nodes["last"]["bounds"] == pytest.approx(xdmf["snapshots"][len(first_nodes["times"]) - 1]["bounds"])
+    assert first_nodes["last"]["bounds"] == pytest.approx(
+        xdmf["snapshots"][len(first_nodes["times"]) - 1]["bounds"]
+    )
     assert first_nodes["first"]["bounds"] != first_nodes["last"]["bounds"] or len(first_nodes["times"]) == 1
     last_nodes = vtx[-2]
     assert last_nodes["last"]["num_cells"] == xdmf["last"]["num_cells"]

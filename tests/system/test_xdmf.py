@@ -21,10 +21,9 @@ import pytest
 from dolfinx import fem
 from mpi4py import MPI
 
-from tests.helpers import paraview_skip_reason, paraview_summaries
-
 from dpcollapse import compat
 from dpcollapse.io.xdmf import XDMFTimeSeries
+from tests.helpers import paraview_skip_reason, paraview_summaries
 
 NAMES = ("velocity", "pressure", "strain_rate")
 TIMES = [0.1, 0.25, 0.4, 0.55]  # three moving steps, then one after a remesh

@@ -7,8 +7,13 @@ import numpy as np
 import pytest
 
 from dpcollapse.models.stokes.history import TimeHistory
-from dpcollapse.solvers.bdf import (bdf2_coefficients, error_constants, midpoint_weights,
-                                    milne_factor, predictor_weights)
+from dpcollapse.solvers.bdf import (
+    bdf2_coefficients,
+    error_constants,
+    midpoint_weights,
+    milne_factor,
+    predictor_weights,
+)
 from dpcollapse.solvers.step_control import GROW, SHRINK, StepController
 
 

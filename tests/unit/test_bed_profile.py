@@ -9,8 +9,8 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.ale.motion import flat_bed, retag_bed
 from dpcollapse.config import load_config
-from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.geometry.mesher import BED, SURFACE
+from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.scenes.registry import scene
 from tests.helpers import ROOT
 

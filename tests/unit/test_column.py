@@ -30,13 +30,22 @@ def test_each_shape_has_its_config_class():
     assert isinstance(load_config(None).geometry, TrapezoidGeometry)   # no shape: trapezoid
 
 
-@pytest.mark.parametrize("overrides, message", [
-    (["geometry.shape=cone"], "geometry.shape = 'cone': must be one of 'trapezoid', 'layer', 'column'"),
-    (["geometry.shape=column", "geometry.flank_angle=80"], "geometry.flank_angle: unknown key;"),
-    (["geometry.shape=column", "geometry.height=-1"], "geometry.height = -1: must be > 0 (m)"),
-    (["geometry.shape=column", "geometry.mesh_size=0.2"], "geometry.mesh_size = 0.2: larger than the column"),
-    (["geometry.shape=layer", "geometry.bed_angel=3"], "geometry.bed_angel: unknown key; did you mean 'bed_angle'?"),
-])
+@pytest.mark.parametrize(
+    "overrides, message",
+    [
+        (["geometry.shape=cone"], "geometry.shape = 'cone': must be one of 'trapezoid', 'layer', 'column'"),
+        (["geometry.shape=column", "geometry.flank_angle=80"], "geometry.flank_angle: unknown key;"),
+        (["geometry.shape=column", "geometry.height=-1"], "geometry.height = -1: must be > 0 (m)"),
+        (
+            ["geometry.shape=column", "geometry.mesh_size=0.2"],
+            "geometry.mesh_size = 0.2: larger than the column",
+        ),
+        (
+            ["geometry.shape=layer", "geometry.bed_angel=3"],
+            "geometry.bed_angel: unknown key; did you mean 'bed_angle'?",
+        ),
+    ],
+)
 def test_geometry_errors_name_the_key_without_the_class(overrides, message):
     with pytest.raises(ConfigError) as info:
         load_config(None, overrides)

@@ -65,12 +65,23 @@ def test_version_specific_calls_live_in_compat():
 
 def test_the_grep_catches_what_it_is_for():
     """The patterns do match the old-style calls (a grep that matches nothing proves nothing)."""
-    samples = ["x = u.vector", "ufl.VectorElement('P', c, 2)", "el.family()",
-               "dmesh.create_rectangle(comm, p, n)", "from dolfinx.mesh import create_rectangle", "from dolfinx.io import gmshio",
-               "V, d = W.sub(0).collapse()", "fem_petsc.create_vector(L)",
-               "fem.Expression(e, pts).eval(cells)", "V.element.interpolation_points()",
-               "geometry.BoundingBoxTree(m, 2)", "mesh._mesh", "mpc.homogenize(x)",
-               "mesh.geometry.dofmap", "fem.form(a, form_compiler_params={})"]
+    samples = [
+        "x = u.vector",
+        "ufl.VectorElement('P', c, 2)",
+        "el.family()",
+        "dmesh.create_rectangle(comm, p, n)",
+        "from dolfinx.mesh import create_rectangle",
+        "from dolfinx.io import gmshio",
+        "V, d = W.sub(0).collapse()",
+        "fem_petsc.create_vector(L)",
+        "fem.Expression(e, pts).eval(cells)",
+        "V.element.interpolation_points()",
+        "geometry.BoundingBoxTree(m, 2)",
+        "mesh._mesh",
+        "mpc.homogenize(x)",
+        "mesh.geometry.dofmap",
+        "fem.form(a, form_compiler_params={})",
+    ]
     for sample in samples:
         assert any(re.search(p, sample) for p in VERSION_SPECIFIC), sample
     for fine in ["u.x.petsc_vec", "vector_space(mesh, 1)", "compat.collapse(W.sub(0))",

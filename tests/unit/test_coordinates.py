@@ -133,15 +133,21 @@ def test_axisymmetric_column_loads():
     assert load_config(None, []).geometry.coordinates == "planar"     # trapezoid: no key
 
 
-@pytest.mark.parametrize("extra, expected", [
-    (["geometry.symmetry=cylindrical"], "geometry.symmetry"),
-    (["numerics.method=augmented_lagrangian"], "geometry.symmetry = 'axisymmetric': only with numerics.method"),
-    (["geometry.bed_angle=10"], "geometry.bed_angle = 10"),
-    (["boundary.channel_width=0.1"], "boundary.channel_width = 0.1"),
-    (["boundary.surface_tension=0.1"], "boundary.surface_tension = 0.1"),
-    (["model.name=two_phase"], "only with model.name = stokes"),
-    (["numerics.linear_solver=iterative"], "numerics.linear_solver = 'iterative'"),
-])
+@pytest.mark.parametrize(
+    "extra, expected",
+    [
+        (["geometry.symmetry=cylindrical"], "geometry.symmetry"),
+        (
+            ["numerics.method=augmented_lagrangian"],
+            "geometry.symmetry = 'axisymmetric': only with numerics.method",
+        ),
+        (["geometry.bed_angle=10"], "geometry.bed_angle = 10"),
+        (["boundary.channel_width=0.1"], "boundary.channel_width = 0.1"),
+        (["boundary.surface_tension=0.1"], "boundary.surface_tension = 0.1"),
+        (["model.name=two_phase"], "only with model.name = stokes"),
+        (["numerics.linear_solver=iterative"], "numerics.linear_solver = 'iterative'"),
+    ],
+)
 def test_unsupported_combinations_are_refused_in_one_line(extra, expected):
     assert expected in _message(AXI + extra)
 

@@ -1,4 +1,5 @@
-"""The documentation: README.md is the user guide (≤ 9 KB), the status page ≤ 8 KB, every relative link in README.md
+"""The documentation: README.md is the user guide (≤ 9 KB), the status page ≤ 8 KB, every relative link
+in README.md
 and docs/ resolves (file, and heading when the link has one), benchmark reports are dated."""
 
 import re

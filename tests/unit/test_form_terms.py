@@ -163,9 +163,15 @@ def test_multiplier_stress(omega):
 def test_boundary_augmentation(omega):
     """∫_Γ r_f u_T·v_T on the bottom: u = (x, 5), v = (1, 7): r_f ∫₀^LX x dx."""
     msh, _, _, ds = omega
-    got = value(augmented.boundary_augmentation(const(omega, 30.0), vec(omega, lambda x, y: x, lambda x, y: 5),
-                                                vec(omega, lambda x, y: 1, lambda x, y: 7),
-                                                ufl.FacetNormal(msh), ds(BOTTOM)))
+    got = value(
+        augmented.boundary_augmentation(
+            const(omega, 30.0),
+            vec(omega, lambda x, y: x, lambda x, y: 5),
+            vec(omega, lambda x, y: 1, lambda x, y: 7),
+            ufl.FacetNormal(msh),
+            ds(BOTTOM),
+        )
+    )
     assert got == pytest.approx(30.0 * LX**2 / 2, rel=1e-12)
 
 

@@ -35,7 +35,10 @@ def test_side_wall_friction_term(square):
     value = fem.assemble_scalar(fem.form(form))
     assert value == pytest.approx(2 / w * mu * P * U**2 / math.sqrt(U**2 + eps**2) * 0.06, rel=1e-10)
     # tension: no friction
-    assert fem.assemble_scalar(fem.form(friction.side_wall_friction(w, mu, _const(msh, -P), u, eps, u, u))) == 0.0
+    assert (
+        fem.assemble_scalar(fem.form(friction.side_wall_friction(w, mu, _const(msh, -P), u, eps, u, u)))
+        == 0.0
+    )
 
 
 def test_coulomb_friction_on_the_bed(square):

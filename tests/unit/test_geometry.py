@@ -10,8 +10,8 @@ from mpi4py import MPI
 
 from dpcollapse.config import load_config
 from dpcollapse.geometry.mesher import BED, SURFACE, WALL
-from dpcollapse.scenes.trapezoid import trapezoid_polygon
 from dpcollapse.scenes.registry import build_mesh, write_msh
+from dpcollapse.scenes.trapezoid import trapezoid_polygon
 from tests.helpers import ROOT
 
 

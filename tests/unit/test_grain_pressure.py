@@ -1,6 +1,7 @@
 """model.grain_pressure (issue 27, docs/benchmarks/2026-12-04-grain-pressure.md): with
 ``effective`` the grains' friction sees p − p_a, p_a = ρ_a f·(x − x_ref) the light fluid's
-hydrostatic pressure, zero at the domain's highest point; ``total`` (the default) keeps p. Checked on a tiny mesh against hand values, on
+hydrostatic pressure, zero at the domain's highest point; ``total`` (the default) keeps p. Checked on a
+tiny mesh against hand values, on
 the two-phase model built from a config (x_ref on the open top, the yield stress of a light
 fluid at rest zero), and the key's default and refusal."""
 
@@ -75,7 +76,15 @@ def test_the_model_measures_from_its_open_top(kind, tmp_path):
     if kind == "effective":
         assert abs(got) < 1e-9
     else:
-        exact = math.sqrt(2) * cfg.material.mu_s * RHO_A * cfg.material.gravity * cfg.model.box_length * top ** 2 / 2
+        exact = (
+            math.sqrt(2)
+            * cfg.material.mu_s
+            * RHO_A
+            * cfg.material.gravity
+            * cfg.model.box_length
+            * top**2
+            / 2
+        )
         assert got == pytest.approx(exact, rel=1e-6)
 
 

@@ -26,10 +26,10 @@ TIGHT = ["geometry.mesh_size=0.05", "numerics.epsilon=1e-2", "numerics.epsilon_f
 
 def test_the_lagged_terms_move_the_convection_to_the_right_hand_side():
     import ufl
+    from dolfinx import fem
+
     from dpcollapse import compat
     from dpcollapse.rheology.drucker_prager import DruckerPrager
-
-    from dolfinx import fem
 
     domain = compat.create_rectangle(MPI.COMM_SELF, (0.0, 0.0), (1.0, 1.0), (2, 2))
     V, Q = compat.vector_space(domain, 1), compat.scalar_space(domain, 1)
@@ -105,7 +105,9 @@ def test_symmetric_direct_solver_solves_a_saddle_point_as_lu_does():
 def test_bad_convection_one_line(capsys):
     assert main(["check", str(RIGID), "--set", "numerics.convection=upwind"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "numerics.convection = 'upwind': must be one of 'implicit' or 'lagged'" in err[0], err
+    assert (
+        len(err) == 1 and "numerics.convection = 'upwind': must be one of 'implicit' or 'lagged'" in err[0]
+    ), err
 
 
 def test_other_methods_keep_their_convection():

@@ -42,7 +42,10 @@ def test_resume_from_an_old_checkpoint_continues_the_run(tmp_path):
     over = OVERRIDES + ["time.end_time=0.03"]
     simulation("rigid.yaml", over, run, comm=MPI.COMM_SELF, resume=True).run()
     simulation("rigid.yaml", over, tmp_path / "full", comm=MPI.COMM_SELF).run()
-    resumed, full = read_diagnostics(run / "diagnostics.csv"), read_diagnostics(tmp_path / "full" / "diagnostics.csv")
+    resumed, full = (
+        read_diagnostics(run / "diagnostics.csv"),
+        read_diagnostics(tmp_path / "full" / "diagnostics.csv"),
+    )
     assert resumed["step"] == full["step"] == list(range(1, 31))
     for key in ("t", "front", "max_height", "kinetic_energy", "max_speed"):
         np.testing.assert_allclose(resumed[key], full[key], rtol=1e-6, atol=1e-12, err_msg=key)
@@ -55,10 +58,14 @@ def test_events_in_order_and_a_subscriber_stops_the_run(tmp_path):
     events = Events()
     events.subscribe("discretization", lambda sim, disc: seen.append(("discretization", sim.state.step)))
     tagged_cells = []
-    events.subscribe("discretization", lambda sim, disc: tagged_cells.append(disc.tagged.cell_tags is not None))
+    events.subscribe(
+        "discretization", lambda sim, disc: tagged_cells.append(disc.tagged.cell_tags is not None)
+    )
     events.subscribe("output", lambda sim, t: seen.append(("output", round(t, 9))))
     events.subscribe("remesh", lambda sim, info: seen.append(("remesh", info["reason"][:9])))
-    events.subscribe("step_accepted", lambda sim, row: seen.append(("step", row["step"])) or row["step"] == 12)
+    events.subscribe(
+        "step_accepted", lambda sim, row: seen.append(("step", row["step"])) or row["step"] == 12
+    )
     summary = simulation("rigid.yaml", [*RIGID_BDF1, "geometry.mesh_size=0.04", "time.end_time=0.05",
                                         "numerics.remesh_min_angle=59", "time.output_every=10"],
                          tmp_path, comm=MPI.COMM_SELF, events=events).run()

@@ -6,9 +6,9 @@ import pytest
 from mpi4py import MPI
 
 from dpcollapse.config import load_config
-from dpcollapse.models.stokes.discretization import make_flow
 from dpcollapse.models.base import Model
 from dpcollapse.models.stokes.augmented import AugmentedLagrangianFlow
+from dpcollapse.models.stokes.discretization import make_flow
 from dpcollapse.models.stokes.regularized import RegularizedFlow
 from dpcollapse.models.stokes.state import StokesState
 from dpcollapse.scenes.registry import build_mesh

@@ -115,7 +115,9 @@ def test_simple_shear_stress_tends_to_mu_I_p(shear, cohesion, gamma_dot, p):
     """σ'_xy = regularized formula at finite ε, → κ0 + μ(I) p as ε → 0 (I = 5e-5, 0.016, 2.1)."""
     law = _law(cohesion=cohesion)
     for eps in (1e-1, 1e-3):
-        assert shear(law, "tau", gamma_dot, p, eps) == pytest.approx(_tau_expected(law, gamma_dot, p, eps), rel=1e-12)
+        assert shear(law, "tau", gamma_dot, p, eps) == pytest.approx(
+            _tau_expected(law, gamma_dot, p, eps), rel=1e-12
+        )
     I = D_GRAIN * gamma_dot / math.sqrt(p / RHO_S)
     tau = shear(law, "tau", gamma_dot, p, 1e-9)
     assert tau == pytest.approx(cohesion + law.friction(I) * p, rel=1e-10)
@@ -129,10 +131,16 @@ def test_negative_pressure_is_finite_and_has_no_friction(shear):
         for what in ("tau", "I", "S"):
             value = shear(law, what, gamma_dot, -1000.0, 1e-6)
             assert math.isfinite(value), (what, gamma_dot)
-    assert shear(law, "tau", 1.0, -1000.0, 1e-6) == pytest.approx(0.0, abs=1e-9)  # round-off only (numpy 2: ~1e-15)
-    assert shear(law, "S", 1.0, -1000.0, 1e-6) == pytest.approx(0.0, abs=1e-9)  # round-off only (numpy 2: ~1e-15)
+    assert shear(law, "tau", 1.0, -1000.0, 1e-6) == pytest.approx(
+        0.0, abs=1e-9
+    )  # round-off only (numpy 2: ~1e-15)
+    assert shear(law, "S", 1.0, -1000.0, 1e-6) == pytest.approx(
+        0.0, abs=1e-9
+    )  # round-off only (numpy 2: ~1e-15)
     # at p = 0 exactly as well
-    assert shear(law, "tau", 1.0, 0.0, 1e-6) == pytest.approx(0.0, abs=1e-9)  # round-off only (numpy 2: ~1e-15)
+    assert shear(law, "tau", 1.0, 0.0, 1e-6) == pytest.approx(
+        0.0, abs=1e-9
+    )  # round-off only (numpy 2: ~1e-15)
     # with cohesion only κ0 remains: τ = κ0 γ̇/√(γ̇²+2ε²)
     coh = _law(cohesion=80.0)
     assert shear(coh, "tau", 1.0, -1000.0, 1e-6) == pytest.approx(80.0, rel=1e-10)

@@ -17,9 +17,16 @@ from tests.helpers import ROOT
 
 
 def _flow(extra=()):
-    cfg = load_config(ROOT / "configs/rigid.yaml", ["geometry.mesh_size=0.05", "numerics.nonlinear_solver=newton",
-                                                    "numerics.epsilon=1e-2", "numerics.epsilon_friction=1e-3",
-                                                    *extra])
+    cfg = load_config(
+        ROOT / "configs/rigid.yaml",
+        [
+            "geometry.mesh_size=0.05",
+            "numerics.nonlinear_solver=newton",
+            "numerics.epsilon=1e-2",
+            "numerics.epsilon_friction=1e-3",
+            *extra,
+        ],
+    )
     tagged = build_mesh(cfg, MPI.COMM_SELF)
     return make_flow(tagged, cfg)
 
@@ -71,7 +78,9 @@ def test_jacobian_matches_central_differences_of_the_residual(extra):
     picard = flow.system.assemble_matrix()   # the Picard matrix at the same iterate
     pd = picard.createVecLeft()
     flow.system.A.mult(d, pd)
-    rows = np.setdiff1d(np.arange(x0.size), np.concatenate([bc.dof_indices()[0] for bc in flow._dirichlet_bcs()]))
+    rows = np.setdiff1d(
+        np.arange(x0.size), np.concatenate([bc.dof_indices()[0] for bc in flow._dirichlet_bcs()])
+    )
     assert np.abs(pd.array[rows] - fd[rows]).max() > 1e-2 * scale
     flow.destroy()
 
@@ -96,9 +105,17 @@ def test_newton_converges_quadratically():
 def test_newton_and_picard_reach_the_same_step():
     """Same residual: Newton's step and a tight Picard step agree to the tolerance."""
     newton = _flow(["numerics.nonlinear_rtol=1e-8", "numerics.nonlinear_atol=0"])
-    cfg = load_config(ROOT / "configs/rigid.yaml", ["geometry.mesh_size=0.05", "numerics.epsilon=1e-2",
-                                                    "numerics.epsilon_friction=1e-3", "numerics.nonlinear_rtol=1e-8",
-                                                    "numerics.nonlinear_atol=0", "numerics.max_iterations=500"])
+    cfg = load_config(
+        ROOT / "configs/rigid.yaml",
+        [
+            "geometry.mesh_size=0.05",
+            "numerics.epsilon=1e-2",
+            "numerics.epsilon_friction=1e-3",
+            "numerics.nonlinear_rtol=1e-8",
+            "numerics.nonlinear_atol=0",
+            "numerics.max_iterations=500",
+        ],
+    )
     picard = make_flow(newton.tagged, cfg)
     for flow in (newton, picard):
         assert flow.solve_step(2e-3).converged
@@ -117,8 +134,10 @@ def test_newton_imposes_the_dirichlet_conditions_like_picard():
     the fix 9.8e-2, with the 1e-3 m/s left on the 24 Dirichlet dofs)."""
     over = ["numerics.epsilon_friction=1e-2", "numerics.nonlinear_rtol=1e-9", "numerics.nonlinear_atol=0",
             "numerics.max_iterations=500"]
-    newton = _flow([*over, "numerics.newton_fallback=false"])   # Newton's own step, not Picard's
-    cfg = load_config(ROOT / "configs/rigid.yaml", ["geometry.mesh_size=0.05", "numerics.epsilon=1e-2", *over])
+    newton = _flow([*over, "numerics.newton_fallback=false"])  # Newton's own step, not Picard's
+    cfg = load_config(
+        ROOT / "configs/rigid.yaml", ["geometry.mesh_size=0.05", "numerics.epsilon=1e-2", *over]
+    )
     picard = make_flow(newton.tagged, cfg)
     bed = np.unique(np.concatenate([bc.dof_indices()[0] for bc in newton._dirichlet_bcs()]))
     for flow in (newton, picard):
@@ -194,12 +213,17 @@ def test_residual_stop_saves_jacobians_and_keeps_the_tolerance():
         flow.destroy()
 
 
-@pytest.mark.parametrize("overrides", [["numerics.nonlinear_solver=secant"],
-                                       ["numerics.nonlinear_solver=newton", "numerics.method=augmented_lagrangian"],
-                                       ["numerics.nonlinear_solver=newton", "numerics.linear_solver=iterative"],
-                                       ["numerics.newton_line_search=trust"],
-                                       ["numerics.newton_stop=norm"],
-                                       ["numerics.newton_epsilon_friction_start=0"]])
+@pytest.mark.parametrize(
+    "overrides",
+    [
+        ["numerics.nonlinear_solver=secant"],
+        ["numerics.nonlinear_solver=newton", "numerics.method=augmented_lagrangian"],
+        ["numerics.nonlinear_solver=newton", "numerics.linear_solver=iterative"],
+        ["numerics.newton_line_search=trust"],
+        ["numerics.newton_stop=norm"],
+        ["numerics.newton_epsilon_friction_start=0"],
+    ],
+)
 def test_bad_newton_keys_are_config_errors(overrides):
     with pytest.raises(ConfigError, match="numerics"):
         load_config(ROOT / "configs/rigid.yaml", overrides)

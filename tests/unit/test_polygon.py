@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from dpcollapse.geometry.polygon import (BoundaryPolygon, chain_boundary, polygon_is_simple,
-                                         resample)
+from dpcollapse.geometry.polygon import BoundaryPolygon, chain_boundary, polygon_is_simple, resample
 
 BED, WALL, SURFACE = 1, 2, 3
 TRAPEZOID = np.array([[0.0, 0.0], [0.297, 0.0], [0.206, 0.25], [0.0, 0.25]])

@@ -32,7 +32,9 @@ def test_simple_shear_gives_coulomb_stress(gamma_dot):
         tau = _shear_stress(eta, mu_s, p, gamma_dot, eps)
         expected = eta * gamma_dot + mu_s * p * gamma_dot / math.sqrt(gamma_dot**2 + 2 * eps**2)
         assert tau == pytest.approx(expected, rel=1e-12)
-    assert _shear_stress(eta, mu_s, p, gamma_dot, 1e-8) == pytest.approx(eta * gamma_dot + mu_s * p, rel=1e-10)
+    assert _shear_stress(eta, mu_s, p, gamma_dot, 1e-8) == pytest.approx(
+        eta * gamma_dot + mu_s * p, rel=1e-10
+    )
 
 
 def test_no_yield_stress_under_tension():

@@ -18,8 +18,10 @@ import rigid_pareto  # noqa: E402
 def test_observed_order_and_extrapolation(p, sizes):
     q0 = np.array([0.66, 0.31, 0.21])
     c = np.array([0.3, -1.2, 0.05])
-    runs = [{"name": f"h{h}", "h": h, **{k: q0 + c * h ** p for k in ("front", "height", "history", "profile")}}
-            for h in sizes]
+    runs = [
+        {"name": f"h{h}", "h": h, **{k: q0 + c * h**p for k in ("front", "height", "history", "profile")}}
+        for h in sizes
+    ]
     for run in runs:
         run["front"] = float(run["front"][0])      # a scalar, as run.json's
     out = rigid_pareto.richardson(runs, log=lambda *_: None)

@@ -22,8 +22,8 @@ def _cfg(*overrides):
 
 
 def test_the_registry_finds_both_models():
-    from dpcollapse.models.stokes.discretization import StokesFactory
     from dpcollapse.models.savage_hutter.adapter import SavageHutterFactory
+    from dpcollapse.models.stokes.discretization import StokesFactory
 
     found = model_factories()
     assert found["stokes"] is StokesFactory and found["savage_hutter"] is SavageHutterFactory

@@ -34,7 +34,12 @@ def test_trapezoid_boundaries():
     (n = (−1, 0)), free surface; the wall becomes frictionless slip at μ_l = 0 and the bed
     no slip with bed_condition no_slip."""
     bed, wall, surface = scene(load_config(ROOT / "configs/rigid.yaml")).boundaries()
-    assert (bed.tag, bed.kind, bed.normal, bed.tangent) == (BED, BoundaryKind.COULOMB, (0.0, -1.0), (1.0, 0.0))
+    assert (bed.tag, bed.kind, bed.normal, bed.tangent) == (
+        BED,
+        BoundaryKind.COULOMB,
+        (0.0, -1.0),
+        (1.0, 0.0),
+    )
     assert bed.friction == pytest.approx(math.tan(math.radians(25.5)))
     assert (wall.tag, wall.kind, wall.normal, wall.axis) == (WALL, BoundaryKind.COULOMB, (-1.0, 0.0), 0)
     assert wall.friction == pytest.approx(math.tan(math.radians(10.2)))

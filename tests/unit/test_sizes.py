@@ -13,8 +13,7 @@ from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.cli import main
-from dpcollapse.config import load_config, with_overrides
-from dpcollapse.config import sizes
+from dpcollapse.config import load_config, sizes, with_overrides
 from tests.helpers import ROOT
 
 SILO = str(ROOT / "configs" / "silo.yaml")

@@ -8,8 +8,7 @@ import pytest
 
 from dpcollapse.geometry.mesher import BED, SURFACE, WALL
 from dpcollapse.geometry.polygon import BoundaryPolygon, polygon_is_simple
-from dpcollapse.geometry.surgery import (CLOSE_CELLS, bed_contacts, near_contacts, operate,
-                                         surgery_needed)
+from dpcollapse.geometry.surgery import CLOSE_CELLS, bed_contacts, near_contacts, operate, surgery_needed
 
 pytest.importorskip("shapely")
 

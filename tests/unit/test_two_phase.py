@@ -146,7 +146,9 @@ def test_sub_step_fluxes_equal_the_assembled_forms(direction):
     cells = compat.cell_dofs(vf.S0)[:n, 0]
     centroid = owned_triangles(mesh).mean(axis=1)
     for target in (vf.work, vf.c):
-        target.x.array[cells] = np.round(4 * (0.5 + 0.5 * np.sin(7 * centroid[:, 0] + 5 * centroid[:, 1]))) / 4
+        target.x.array[cells] = (
+            np.round(4 * (0.5 + 0.5 * np.sin(7 * centroid[:, 0] + 5 * centroid[:, 1]))) / 4
+        )
         target.x.scatter_forward()
     gradient = None
     if direction == "normal":

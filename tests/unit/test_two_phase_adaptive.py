@@ -8,10 +8,10 @@ from mpi4py import MPI
 
 from dpcollapse import compat
 from dpcollapse.config import load_config
+from dpcollapse.domain.adaptive_box import SizeField, adaptive_box, equivalent_size
 from dpcollapse.errors import ConfigError
 from dpcollapse.geometry.mesher import BED, LEFT, RIGHT, SURFACE
 from dpcollapse.models.two_phase.adapter import TwoPhaseFactory, is_adaptive
-from dpcollapse.domain.adaptive_box import SizeField, adaptive_box, equivalent_size
 from dpcollapse.models.two_phase.fraction import owned_triangles
 from tests.helpers import ROOT
 

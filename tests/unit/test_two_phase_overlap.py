@@ -11,10 +11,9 @@ from mpi4py import MPI
 from dpcollapse import compat
 from dpcollapse.config import load_config
 from dpcollapse.errors import ConfigError
-from dpcollapse.scenes.registry import scene
 from dpcollapse.models.two_phase.fraction import owned_triangles
-from dpcollapse.models.two_phase.overlap import (polygon_fraction, rectangle_fraction,
-                                                 union_fraction)
+from dpcollapse.models.two_phase.overlap import polygon_fraction, rectangle_fraction, union_fraction
+from dpcollapse.scenes.registry import scene
 from tests.helpers import ROOT
 
 CONFIG = ROOT / "configs" / "erodible_eulerian.yaml"

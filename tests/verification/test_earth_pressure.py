@@ -11,8 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from dpcollapse.models.savage_hutter import (CoulombFriction, EarthPressure, Grid, SavageHutter,
-                                             simulate)
+from dpcollapse.models.savage_hutter import CoulombFriction, EarthPressure, Grid, SavageHutter, simulate
 from dpcollapse.models.savage_hutter.earth_pressure import savage_hutter_coefficients
 from dpcollapse.models.savage_hutter.exact import mangeney_dam_break, parabolic_cap
 from studies.savage_hutter import heap_run

@@ -273,8 +273,8 @@ def test_pile_against_a_wall_on_a_slope_steeper_than_friction(fraction, at_rest)
 
 
 def test_polygon_profiles_are_exact_cell_averages():
-    from dpcollapse.scenes.trapezoid import trapezoid_polygon
     from dpcollapse.models.savage_hutter.initial import polygon_area, polygon_cell_averages
+    from dpcollapse.scenes.trapezoid import trapezoid_polygon
 
     # rigid.yaml: h0 = 0.25, l0 = 0.297, 70°: area l0 h0 − h0²/(2 tan 70°) = 0.0628759 m²
     trap = trapezoid_polygon(0.25, 0.297, 70.0)[0]

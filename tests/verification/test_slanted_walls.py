@@ -25,8 +25,8 @@ from mpi4py import MPI
 
 from dpcollapse.ale.motion import MeshMotion
 from dpcollapse.config import load_config
-from dpcollapse.models.stokes.discretization import flow_parameters
 from dpcollapse.models.registry import model_class
+from dpcollapse.models.stokes.discretization import flow_parameters
 from dpcollapse.scenes.base import SOLID
 from dpcollapse.scenes.registry import scene as make_scene
 from tests.helpers import RIGID_BDF1, ROOT

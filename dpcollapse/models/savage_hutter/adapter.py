@@ -26,14 +26,13 @@ import numpy as np
 from dolfinx import fem
 
 from dpcollapse import compat
-from dpcollapse.errors import ConfigError, ConvergenceError
 from dpcollapse.domain.fixed import FixedDomain
+from dpcollapse.errors import ConfigError, ConvergenceError
 from dpcollapse.io.checkpoint import choose_checkpoint, write_npz_atomic
 from dpcollapse.models.base import DiscretizationDefaults
 from dpcollapse.models.savage_hutter.scheme import interface_terms, update, velocity
 from dpcollapse.models.savage_hutter.setup import SavageHutterSetup, setup_from_config
-from dpcollapse.models.savage_hutter.solver import (_heun_step, front_position,
-                                                    wet_front_position)
+from dpcollapse.models.savage_hutter.solver import _heun_step, front_position, wet_front_position
 
 #: Arrays of a depth-averaged checkpoint (checkpoint.npz).
 CHECKPOINT_KEYS = ("thickness", "momentum", "outflow", "grid", "state")

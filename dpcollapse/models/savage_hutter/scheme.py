@@ -45,7 +45,8 @@ moreover *locked* when its surface step obeys
 
 (with an earth pressure: (K_R h_R² − K_L h_L²)/(h_L + h_R) in place of h_R − h_L, i.e. K Δh
 for a uniform K), i.e. when the net force of pressure and gravity on its two half cells,
-−(p_R − p_L) + g sinθ h̄ Δx = −g cosθ h̄ (Δh − Δx tanθ) at K = 1 with h̄ = (h_L + h_R)/2, is within the static friction μ_static g cosθ h̄ Δx of those half
+−(p_R − p_L) + g sinθ h̄ Δx = −g cosθ h̄ (Δh − Δx tanθ) at K = 1 with h̄ = (h_L + h_R)/2, is within the
+static friction μ_static g cosθ h̄ Δx of those half
 cells. At a wall the mirror cell is not material: the wall reacts to any push into it, so a wall
 face at rest is locked unless the pull away from the wall exceeds friction (right wall:
 h_R − h_L − Δx tanθ ≤ μ_static Δx, left wall: ≥ −μ_static Δx, with the mirrored h). A locked

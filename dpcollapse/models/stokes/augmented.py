@@ -323,7 +323,10 @@ class AugmentedLagrangianFlow(StokesState):
         if self.has_friction:
             refresh(self._threshold, self._compute_wall_threshold)
         if self.has_side_walls:
-            refresh(self._side_threshold.x.array, lambda: self._side_threshold.interpolate(self._side_threshold_expr))
+            refresh(
+                self._side_threshold.x.array,
+                lambda: self._side_threshold.interpolate(self._side_threshold_expr),
+            )
         return max(changes)
 
     def _compute_wall_threshold(self) -> None:
@@ -438,7 +441,9 @@ class AugmentedLagrangianFlow(StokesState):
         x = self.mesh.geometry.x[:, :2]
         cells = compat.geometry_dofmap(self.mesh)[:compat.num_owned_cells(self.mesh), :3]
         a, b, c = x[cells[:, 0]], x[cells[:, 1]], x[cells[:, 2]]
-        return 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+        return 0.5 * np.abs(
+            (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+        )
 
     def _dg_norm(self, values: np.ndarray) -> float:
         """RMS over Ω of a DG tensor field given by its dof array, with the lumped (nodal)

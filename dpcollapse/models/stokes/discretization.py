@@ -25,16 +25,17 @@ from dpcollapse.geometry.boundary_loops import BoundaryLoops
 from dpcollapse.geometry.mesher import DOMAIN, TaggedMesh
 from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
 from dpcollapse.io.law_fields import LawFields
-from dpcollapse.rheology.base import Rheology
-from dpcollapse.rheology.choice import law_from_material
-from dpcollapse.rheology.coordinates import coordinates
-from dpcollapse.scenes.base import film_threshold, thickness_front
-from dpcollapse.scenes.registry import build_mesh, scene as make_scene
 from dpcollapse.models.base import DiscretizationDefaults
 from dpcollapse.models.registry import model_class
 from dpcollapse.models.stokes.augmented import augmented_settings  # noqa: F401  (callers import it here)
 from dpcollapse.models.stokes.regularized import picard_settings  # noqa: F401  (callers import it here)
 from dpcollapse.models.stokes.state import FlowParameters
+from dpcollapse.rheology.base import Rheology
+from dpcollapse.rheology.choice import law_from_material
+from dpcollapse.rheology.coordinates import coordinates
+from dpcollapse.scenes.base import film_threshold, thickness_front
+from dpcollapse.scenes.registry import build_mesh
+from dpcollapse.scenes.registry import scene as make_scene
 
 #: Speed above which a point counts as flowing (seed 000) [m/s].
 FLOWING_SPEED = 1e-3
@@ -114,7 +115,11 @@ class StokesDiscretization(DiscretizationDefaults):
         f = fem.Constant(mesh, np.array(self.flow.params.body_force, dtype=compat.ScalarType))
         self._gravity_moment = fem.form(cfg.material.density * ufl.inner(f, ufl.SpatialCoordinate(mesh)) * dx)
         # output functions on spaces XDMF writes faithfully (P1, DG0)
-        V1, S1, S0 = compat.vector_space(mesh, 1), compat.scalar_space(mesh, 1), compat.scalar_space(mesh, 0, "DG")
+        V1, S1, S0 = (
+            compat.vector_space(mesh, 1),
+            compat.scalar_space(mesh, 1),
+            compat.scalar_space(mesh, 0, "DG"),
+        )
         self.out_velocity = fem.Function(V1, name="velocity")
         self.out_pressure = fem.Function(S1, name="pressure")
         self.out_strain_rate = fem.Function(S0, name="strain_rate")

@@ -5,7 +5,8 @@ velocity w, iterate k = 0, 1, …: assemble the linear Oseen/Stokes problem of
 ``forms.momentum`` + ``forms.friction`` with coefficients frozen at (uᵏ, pᵏ), solve it by
 LU, and stop when the estimated error of the iterate, ‖u^{k+1} − uᵏ‖·max(1, ρ/(1 − ρ)) with ρ
 the observed contraction of successive increments, is ≤ rtol ‖u^{k+1}‖ + atol (RMS over
-velocity dofs; the absolute part atol only once ρ is measured, k ≥ 2), or, with ``fixed_iterations`` K, after K iterates whatever the test says
+velocity dofs; the absolute part atol only once ρ is measured, k ≥ 2), or, with ``fixed_iterations`` K,
+after K iterates whatever the test says
 (K = 1: the linearly implicit step, the viscosity and the convecting velocity taken at the
 step's start uⁿ — or at its extrapolation — as Basilisk's granular.h does). Optionally the
 iterates are Anderson-accelerated (``solvers.anderson``).

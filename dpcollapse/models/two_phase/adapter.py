@@ -31,20 +31,20 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from dpcollapse import compat
+from dpcollapse.domain.adaptive_box import AdaptiveBox, SizeField, equivalent_size
 from dpcollapse.domain.fixed import FixedDomain
 from dpcollapse.fronts import profile_front
-from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.geometry.mesher import TaggedMesh
+from dpcollapse.geometry.rectangle import structured_rectangle
 from dpcollapse.io.checkpoint import load_model_checkpoint, save_model_checkpoint
 from dpcollapse.io.law_fields import LawFields
 from dpcollapse.models.base import DiscretizationDefaults
 from dpcollapse.models.stokes.regularized import picard_settings
 from dpcollapse.models.stokes.state import FlowParameters
-from dpcollapse.domain.adaptive_box import AdaptiveBox, SizeField, equivalent_size
-from dpcollapse.models.two_phase.flow import LightFluid, TwoPhaseFlow
-from dpcollapse.models.two_phase.fraction import owned_triangles
 from dpcollapse.models.two_phase.erodible_layer import MEASURES as LAYER_MEASURES
 from dpcollapse.models.two_phase.erodible_layer import LayerTracer
+from dpcollapse.models.two_phase.flow import LightFluid, TwoPhaseFlow
+from dpcollapse.models.two_phase.fraction import owned_triangles
 from dpcollapse.models.two_phase.overlap import union_fraction
 from dpcollapse.models.two_phase.remap import strip_overlaps
 from dpcollapse.rheology.choice import law_from_material

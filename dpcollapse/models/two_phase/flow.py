@@ -3,7 +3,8 @@
 (``forms.two_phase``), then the advection of c by the converged u^{n+1}
 (``fraction.VolumeFraction``, sub-cycled).
 
-    (ρ(cⁿ) u^{n+1} − ½(ρ(cⁿ) + ρ(cⁿ⁻¹)) uⁿ)/Δt + ρ(cⁿ) (u^{n+1,k}·∇) u^{n+1} − ∇·(S(cⁿ, u^{n+1,k}, p^{n+1,k}) D(u^{n+1}))
+    (ρ(cⁿ) u^{n+1} − ½(ρ(cⁿ) + ρ(cⁿ⁻¹)) uⁿ)/Δt + ρ(cⁿ) (u^{n+1,k}·∇) u^{n+1} − ∇·(S(cⁿ, u^{n+1,k}, p^{n+1,k})
+    D(u^{n+1}))
         − ∇(γ S ∇·u^{n+1}) + ∇p^{n+1} = ρ(cⁿ) g,   ∇·u^{n+1} = 0;       then  c^{n+1} = A_Δt(cⁿ; u^{n+1})
 
 (``model.inertia: mean``, the default since 2026-12-07; ``energy``, the default from

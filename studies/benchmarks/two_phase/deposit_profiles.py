@@ -4,9 +4,12 @@
     python studies/benchmarks/two_phase/deposit_profiles.py OUT.png DX [--toe=X0,X1,HMAX] "label=RUN[@DX]" ...
 
 h(x) = Σ c_K |K ∩ S| / DX over the column S = [x, x + DX) × ℝ (exact triangle-strip overlaps,
-``remap.strip_overlaps``) of the last output (fields/step_*.h5): c the volume fraction of a two-phase run, 1 on a moving
-mesh (the mesh is the material); DX after a run: its own width. The same definition for both models; printed: the front at
-h ≥ 1, 2, 5, 10, 20 mm (right edge of the last such column) and the largest h. The right panel shows the toe in
+``remap.strip_overlaps``) of the last output (fields/step_*.h5): c the volume fraction of a two-phase
+run, 1 on a moving
+mesh (the mesh is the material); DX after a run: its own width. The same definition for both models;
+printed: the front at
+h ≥ 1, 2, 5, 10, 20 mm (right edge of the last such column) and the largest h. The right panel shows the
+toe in
 [X0, X1] × [0, HMAX] (default the trapezoid's 0.45, 0.9, 0.05 m). Labels starting with "MM" are drawn dashed.
 """
 

@@ -45,7 +45,9 @@ def main(out, when, runs):
         fig.colorbar(b, ax=row[1], label="|u| [m/s]")
         for ax in row:
             ax.tricontour(tri, cv, levels=[0.5], colors="w", linewidths=0.8)
-            ax.set_xlim(0.2, 0.9); ax.set_ylim(0, 0.2); ax.set_aspect("equal")
+            ax.set_xlim(0.2, 0.9)
+            ax.set_ylim(0, 0.2)
+            ax.set_aspect("equal")
         row[0].set_title(f"{label}: c, t = {t:.3f} s")
         row[1].set_title(f"{label}: |u| (max {speed.max():.1f} m/s); white: c = 1/2")
     fig.tight_layout()

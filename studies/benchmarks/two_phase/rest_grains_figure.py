@@ -16,7 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.tri import Triangulation
-from yield_weighting_heap import fraction, nodal   # the DG0 volume fraction of one output (h5py)
+from yield_weighting_heap import fraction, nodal  # the DG0 volume fraction of one output (h5py)
 
 
 def read(path):
