@@ -8,6 +8,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from dpcollapse import compat
+from dpcollapse.ale.area import AreaKeeper
 from dpcollapse.ale.quality import max_safe_step, min_angles, signed_areas
 from dpcollapse.forms.mesh_velocity import mesh_velocity_forms
 from dpcollapse.geometry.mesher import BED, SURFACE
@@ -29,7 +30,8 @@ class MeshMotion:
     ~4× cheaper to solve.
     """
 
-    def __init__(self, flow, penalty: float, linear_solver: str = "mumps"):
+    def __init__(self, flow, penalty: float, linear_solver: str = "mumps",
+                 conserve_area: bool = False):
         self.flow = flow
         mesh = self.mesh = flow.mesh
         self.w = flow.mesh_velocity
@@ -59,6 +61,9 @@ class MeshMotion:
         flat = bool(np.all(mesh.geometry.x[self._bed_nodes, 1] == 0.0))
         self._flat_bed = mesh.comm.allreduce(flat, op=MPI.LAND) and mesh.comm.allreduce(
             len(self._bed_nodes), op=MPI.SUM) > 0
+        # numerics.step_conserve_area: each move's area change put back (``ale.area``)
+        self.area_keeper = AreaKeeper(mesh, ft, surface, Vw, self._node_dof, gdm) \
+            if conserve_area else None
 
     def _slip_bcs(self, Vw):
         """w·n = 0 on every solid side parallel to an axis (w_y on the bed y = 0, w_x on the
@@ -171,6 +176,8 @@ class MeshMotion:
         below = surface[x[surface, 1] < 0.0]
         x[below, 1] = 0.0
         landed = np.union1d(landed, below[old[below, 1] > 0])
+        if self.area_keeper is not None:
+            self.area_keeper.restore(self.area_keeper.area(old))
         return old, self.mesh.comm.allreduce(len(landed), op=MPI.SUM)
 
     def destroy(self) -> None:

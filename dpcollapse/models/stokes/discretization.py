@@ -94,7 +94,8 @@ class StokesDiscretization(DiscretizationDefaults):
         self.film_threshold = film_threshold(self.flow.params.rheology.grain_scale,
                                              cfg.geometry.mesh_size)
         self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
-                                 direct_solver(cfg)) if cfg.numerics.ale else None
+                                 direct_solver(cfg), cfg.numerics.step_conserve_area) \
+            if cfg.numerics.ale else None
         u, p = ufl.split(self.flow.solution)
         self._area = fem.form(1.0 * ufl.dx(domain=mesh))
         self._kinetic = fem.form(0.5 * cfg.material.density * ufl.inner(u, u) * ufl.dx)
