@@ -15,6 +15,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from dpcollapse import compat
+from dpcollapse.ale.area import AreaKeeper
 from dpcollapse.ale.quality import max_safe_step, min_angles, signed_areas
 from dpcollapse.forms.mesh_velocity import mesh_velocity_forms
 from dpcollapse.geometry.mesher import BED, SURFACE
@@ -35,7 +36,8 @@ class MeshMotion:
     ~4× cheaper to solve.
     """
 
-    def __init__(self, flow, penalty: float, linear_solver: str = "mumps", bed_height=None):
+    def __init__(self, flow, penalty: float, linear_solver: str = "mumps", bed_height=None,
+                 conserve_area: bool = False):
         self.flow = flow
         #: y = b(x) of the rigid bed under the abscissae x (``Scene.bed_height``; None: y = 0)
         self.bed_height = bed_height or flat_bed
@@ -69,6 +71,9 @@ class MeshMotion:
         on = bool(np.all(xb[:, 1] == self.bed_height(xb[:, 0])))
         self._on_profile = mesh.comm.allreduce(on, op=MPI.LAND) and mesh.comm.allreduce(
             len(self._bed_nodes), op=MPI.SUM) > 0
+        # numerics.step_conserve_area: each move's area change put back (``ale.area``)
+        self.area_keeper = AreaKeeper(mesh, ft, surface, Vw, self._node_dof, gdm) \
+            if conserve_area else None
 
     def _slip_bcs(self, Vw):
         """w·n = 0 on every solid side parallel to an axis (w_y on the bed y = 0, w_x on the
@@ -214,6 +219,8 @@ class MeshMotion:
             _stop_at_face(x, old, np.union1d(surface, bed), b)
         # off the bed: above it after the move (slid past a higher bed's end)
         took_off = bed[x[bed, 1] > b(x[bed, 0])] if self._on_profile else bed[:0]
+        if self.area_keeper is not None:
+            self.area_keeper.restore(self.area_keeper.area(old))
         comm = self.mesh.comm
         return old, comm.allreduce(len(landed), op=MPI.SUM), comm.allreduce(len(took_off), op=MPI.SUM)
 

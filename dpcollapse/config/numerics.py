@@ -138,9 +138,15 @@ class NumericsConfig(_Section):
     remesh_film_trim: Number = _f(
         0.0, "", "Remeshing cuts off the front film thinner than this fraction of "
         "geometry.mesh_size (vertical cut where the mass is last that thick; 0: off)", ge=0, lt=1)
+    remesh_film_trim_grains: Number = _f(
+        0.0, "", "mu(I): remeshing also cuts off the front film thinner than this many grain "
+        "diameters material.grain_diameter (the larger of the two trims; 0: off)", ge=0, le=10)
     remesh_conserve_area: bool = Field(
         False, strict=True, description="Remeshing puts back the area that untangling a fold, "
         "trimming the film and resampling changed, by moving the free surface along its normal")
+    step_conserve_area: bool = Field(
+        False, strict=True, description="Every mesh move puts back its own area change (the "
+        "dt^2 term of the explicit node update) by moving the free surface along its normal")
     remesh_surgery: bool = Field(
         True, strict=True, description="Remeshing rebuilds a free surface that touches the bed "
         "or the mass itself (closer than 0.25 geometry.mesh_size, or crossing) as the union of "

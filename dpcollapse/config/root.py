@@ -104,6 +104,11 @@ class Config(_Section):
             raise ConfigError(f"time.scheme = 'bdf2': only with model.name = stokes and "
                               f"numerics.method = regularized (got {self.model.name}, "
                               f"{self.numerics.method}); use bdf1")
+        if self.numerics.remesh_film_trim_grains > 0 and self.material.rheology != "mu_i":
+            raise ConfigError(f"numerics.remesh_film_trim_grains = "
+                              f"{_fmt(self.numerics.remesh_film_trim_grains)}: needs "
+                              f"material.rheology = mu_i (a grain diameter); use "
+                              f"numerics.remesh_film_trim (a fraction of geometry.mesh_size)")
         if g.periodic and self.numerics.linear_solver == "iterative":
             raise ConfigError(f"numerics.linear_solver = 'iterative': not available on a periodic "
                               f"domain (geometry.shape = {g.shape}); use mumps or superlu_dist")
@@ -138,6 +143,9 @@ class Config(_Section):
         if self.numerics.linear_solver == "iterative":
             raise ConfigError(f"numerics.linear_solver = 'iterative': not available with {first}; "
                               f"use mumps or superlu_dist")
+        if self.numerics.step_conserve_area:
+            raise ConfigError(f"numerics.step_conserve_area = true: not available with {first} "
+                              f"(it keeps the section's area, not the body's volume); must be false")
 
     def _two_phase(self) -> None:
         """The fixed box must contain the column; the rest is refused (one line each)."""

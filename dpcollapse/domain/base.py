@@ -63,13 +63,20 @@ def make_domain(cfg) -> Domain:
 
         n = cfg.numerics
         return MovingDomain(n.remesh_min_angle, cfg.geometry.mesh_size,
-                            cfg.geometry.surface_mesh_size,
-                            n.remesh_film_trim * cfg.geometry.mesh_size, n.remesh_conserve_area,
-                            n.remesh_surgery,
+                            cfg.geometry.surface_mesh_size, film_trim_thickness(cfg),
+                            n.remesh_conserve_area, n.remesh_surgery,
                             axisymmetric=cfg.geometry.coordinates == "axisymmetric")
     from dpcollapse.domain.fixed import FixedDomain
 
     return FixedDomain()
+
+
+def film_trim_thickness(cfg) -> float:
+    """The front film thinner than this [m] is cut at remeshes: the larger of
+    ``numerics.remesh_film_trim`` × ΔX and (μ(I)) ``numerics.remesh_film_trim_grains`` × d."""
+    n = cfg.numerics
+    grains = n.remesh_film_trim_grains * getattr(cfg.material, "grain_diameter", 0.0)
+    return max(n.remesh_film_trim * cfg.geometry.mesh_size, grains)
 
 
 def refuse_degenerate(domain: Domain, disc, t: float, dt: float, message: str) -> None:

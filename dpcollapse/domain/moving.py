@@ -42,6 +42,12 @@ ENERGY_TOLERANCE = 0.05
 #: Largest area change a remesh may make by dropping boundary vertices, relative to the
 #: initial area.
 REMESH_AREA_TOLERANCE = 1e-6
+#: ... and with ``numerics.remesh_conserve_area`` (the net change is put back): the vertex
+#: dropping may then remove sub-cell features of the boundary up to this fraction of the
+#: area (1.4e-6 m², 0.06 cell of 5 mm, on the a = 1.42 column). At 1e-6 the column's nose kept
+#: sub-grain lips of zero pressure on which the fixed point stalled (issue 49,
+#: docs/benchmarks/2026-12-07-moving-mesh-front-film.md).
+REMESH_AREA_TOLERANCE_CONSERVED = 1e-4
 #: Steps between two remeshes triggered by the angle criterion alone.
 REMESH_COOLDOWN = 5
 #: After a remesh that left an angle below the threshold, remesh again only when the
@@ -179,9 +185,10 @@ class MovingDomain:
         number of boundary vertices kept). The front film thinner than ``trim_thickness`` is
         trimmed and the area put back with ``conserve_area`` (``ale.remesh.remesh_domain``).
         MeshError when the boundary is no longer one closed loop."""
+        tolerance = REMESH_AREA_TOLERANCE_CONSERVED if self.conserve_area else REMESH_AREA_TOLERANCE
         try:
             new, _, nverts = remesh_regions(tagged, self.mesh_size, self.surface_mesh_size,
-                                            REMESH_AREA_TOLERANCE * area0, self.trim_thickness,
+                                            tolerance * area0, self.trim_thickness,
                                             self.conserve_area, self.surgery, self.surgeries,
                                             axisymmetric=self.axisymmetric)
         except ValueError as exc:   # the boundary is no longer one closed loop

@@ -146,6 +146,7 @@ def test_axisymmetric_column_loads():
         (["boundary.surface_tension=0.1"], "boundary.surface_tension = 0.1"),
         (["model.name=two_phase"], "only with model.name = stokes"),
         (["numerics.linear_solver=iterative"], "numerics.linear_solver = 'iterative'"),
+        (["numerics.step_conserve_area=true"], "numerics.step_conserve_area = true"),
     ],
 )
 def test_unsupported_combinations_are_refused_in_one_line(extra, expected):

@@ -102,7 +102,9 @@ class StokesDiscretization(DiscretizationDefaults):
         self.film_threshold = film_threshold(self.flow.params.rheology.grain_scale,
                                              cfg.geometry.mesh_size)
         self.motion = MeshMotion(self.flow, cfg.numerics.mesh_velocity_penalty,
-                                 direct_solver(cfg), self.scene.bed_height) if cfg.numerics.ale else None
+                                 direct_solver(cfg), bed_height=self.scene.bed_height,
+                                 conserve_area=cfg.numerics.step_conserve_area) \
+            if cfg.numerics.ale else None
         # the boundary's chaining for the thickness front, done once per mesh (rank 0)
         self._boundary_loops = BoundaryLoops()
         u, p = ufl.split(self.flow.solution)
