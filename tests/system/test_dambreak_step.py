@@ -10,12 +10,14 @@ from tests.helpers import simulation
 
 
 def test_the_column_falls_over_the_step_keeping_its_area(tmp_path):
-    """configs/dambreak_step.yaml on a 2 cm mesh to t = 0.16 s (x_e = 0.12 m, s = 0.05 m):
-    the front passes the edge and the mass falls below the plateau (measured: front 0.1528 m,
-    lowest node 0.0080 m), the area moves by 4.7e-6 of itself (1e-3 allowed: remeshes), and
-    no node is ever inside the step x < x_e, y < s."""
-    sim = simulation("dambreak_step.yaml", ["geometry.mesh_size=0.02", "time.end_time=0.16"],
-                     tmp_path, comm=MPI.COMM_SELF)
+    """configs/dambreak_step.yaml on its own 1 cm mesh to t = 0.16 s (x_e = 0.12 m,
+    s = 0.05 m): the front passes the edge and the mass falls below the plateau (measured:
+    front 0.1565 m), the area moves by −3.4e-4 of itself on DOLFINx 0.5.2 and 0.9 alike
+    (1e-3 allowed), and no node is ever inside the step x < x_e, y < s. (On 2 cm cells the
+    drift depends on gmsh's mesh: −4.7e-6 with Debian 12's, −1.3e-2 with Debian 13's, where
+    a remesh puts a vertex on the chord under the step's corner — the known limit of the
+    scene, docs/status.md.)"""
+    sim = simulation("dambreak_step.yaml", ["time.end_time=0.16"], tmp_path, comm=MPI.COMM_SELF)
     g = sim.cfg.geometry
     depth, lowest = [], []
 
