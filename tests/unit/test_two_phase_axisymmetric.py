@@ -100,3 +100,21 @@ def test_planar_weighting_does_not_conserve_the_body_volume():
     assert abs(end + left - start) > 0.05 * start     # measured: +37 %
     assert vf.bounds()[1] > 1.1       # c piles up past 1 (measured: 1.144)
     vf.destroy()
+
+
+def test_the_cylindrical_silo_and_hopper_configs_load():
+    """``geometry.symmetry`` on the silo: the fill volumes are the cylinder π R² H and, for
+    the hopper, the frustum + cylinder that Pappus gives for the half-plane's fill polygon."""
+    from dpcollapse.config import load_config
+    from dpcollapse.geometry.polygon import signed_volume
+    from dpcollapse.scenes.registry import scene
+    from tests.helpers import ROOT
+
+    silo = load_config(ROOT / "configs" / "silo_axi.yaml")
+    assert silo.geometry.coordinates == "axisymmetric"
+    assert "cylindrical silo" in silo.geometry.describe()
+    assert silo.geometry.fill_volume == pytest.approx(math.pi * 0.1**2 * 0.2, rel=1e-14)
+    hopper = load_config(ROOT / "configs" / "hopper_axi.yaml")
+    region = scene(hopper).region()
+    assert hopper.geometry.fill_volume == pytest.approx(abs(signed_volume(region)), rel=1e-12)
+    assert load_config(ROOT / "configs" / "silo.yaml").geometry.coordinates == "planar"
