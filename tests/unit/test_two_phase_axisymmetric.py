@@ -118,3 +118,33 @@ def test_the_cylindrical_silo_and_hopper_configs_load():
     region = scene(hopper).region()
     assert hopper.geometry.fill_volume == pytest.approx(abs(signed_volume(region)), rel=1e-12)
     assert load_config(ROOT / "configs" / "silo.yaml").geometry.coordinates == "planar"
+
+
+@pytest.mark.parametrize("weighting", ["volume", "grains"])
+def test_the_mixture_sees_the_hoop_rate(weighting):
+    """u = (r, 0): |D|² = (∂_r u_r)² + (u_r/r)² = 2 about the axis (1 in the plane). The
+    mixture of a cohesive Bingham law (κ0 = 1 Pa: κ = √2, η = 0.5 Pa s) at c = 1 has
+    S = κ/√(|D|² + ε²) + 2η = 1 + 1 and σ'_θθ = S u_r/r = 2; the grad-div term's
+    (∇·u)² = (1 + 1)² = 4. Planar (control): S = √2 + 1 and no hoop stress."""
+    import ufl
+
+    from dpcollapse.forms.two_phase import MixtureRheology, grad_div
+    from dpcollapse.rheology.drucker_prager import DruckerPrager
+
+    mesh = compat.create_rectangle(MPI.COMM_SELF, (0, 0), (1, 1), (4, 4))
+    V = compat.vector_space(mesh, 2)
+    u = fem.Function(V)
+    u.interpolate(lambda x: np.vstack([x[0], 0.0 * x[1]]))
+    one = fem.Constant(mesh, 1.0)
+    expected = {AXISYMMETRIC: (2.0, 4.0), PLANAR: (math.sqrt(2.0) + 1.0, 1.0)}
+    for coords, (secant, div2) in expected.items():
+        law = DruckerPrager(0.5, 0.0, 1.0, coordinates=coords)
+        mix = MixtureRheology(law, one, 1e-3, yield_weighting=weighting)
+        assert mix.coordinates is coords
+        S = fem.assemble_scalar(fem.form(mix.secant_viscosity(u, 0.0 * one, 0.0) * ufl.dx))
+        assert S == pytest.approx(secant, rel=1e-12)
+        if coords is AXISYMMETRIC:
+            stress = mix.deviatoric_stress(u, 0.0 * one, 0.0)
+            assert fem.assemble_scalar(fem.form(stress[2, 2] * ufl.dx)) == pytest.approx(2.0, rel=1e-12)
+        term = grad_div(1.0, one, u, u, ufl.dx, coords)
+        assert fem.assemble_scalar(fem.form(term)) == pytest.approx(div2, rel=1e-12)
