@@ -99,3 +99,28 @@ def test_the_cylindrical_silo_resumes_with_its_volume(tmp_path):
     assert abs(resumed["outflow_area"] - whole["outflow_area"]) < 1e-9 * whole["outflow_area"]
     assert resumed["discharge_steady"] == pytest.approx(whole["discharge_steady"], rel=1e-6)
     assert abs(resumed["area_drift"]) < 1e-9
+
+
+def _unweighted(flow) -> list[str]:
+    """The names of the flow's terms with an integral whose integrand has no r (x[0])."""
+    from ufl import SpatialCoordinate
+    from ufl.algorithms.analysis import extract_type
+
+    forms = {**flow.terms, **flow.rhs_terms}
+    return sorted(name for name, form in forms.items()
+                  if any(not extract_type(i.integrand(), SpatialCoordinate) for i in form.integrals()))
+
+
+@pytest.mark.parametrize("config", ["silo_axi.yaml", "hopper_axi.yaml"])
+def test_every_term_of_the_two_phase_flow_carries_the_weight(config, tmp_path):
+    """Every integral of every term (inertia, skew convection and its backflow side, the
+    mixture's time derivative, the ambient traction, the walls' friction, Nitsche on the
+    cone, grad-div) is weighted by 2πr; the planar silo (control) has unweighted terms."""
+    over = TINY_SILO + ["model.grad_div=1.0"]
+    axi = simulation(config, over, tmp_path / "axi", comm=MPI.COMM_SELF)
+    names = set(axi.disc.flow.terms) | set(axi.disc.flow.rhs_terms)
+    assert {"inertia", "convection", "previous_velocity", "grad_div", "orifice_ambient"} <= names
+    assert _unweighted(axi.disc.flow) == []
+    planar = simulation(config, over + ["geometry.symmetry=planar"], tmp_path / "planar",
+                        comm=MPI.COMM_SELF)
+    assert "inertia" in _unweighted(planar.disc.flow)
