@@ -41,7 +41,8 @@ def _mesh_file(what: str) -> Any:
 def _symmetry() -> Any:
     return _f("planar", "", "Coordinates of the 2D model: planar (x, y, per unit depth), or "
               "axisymmetric (x = r >= 0, y = z: the body of revolution about the axis x = 0, "
-              "measure 2 pi r; stokes model, regularized method, flat bed)")
+              "measure 2 pi r; stokes model with the regularized method, or two_phase without "
+              "the adaptive box; flat bed)")
 
 
 class _Geometry(_Section):
@@ -343,6 +344,7 @@ class SiloGeometry(_Geometry):
     bed_angle: ClassVar[float] = 0.0
 
     shape: Literal["silo"] = _f("silo", "", "The silo or hopper with an orifice in its bottom")
+    symmetry: Literal["planar", "axisymmetric"] = _symmetry()
     width: Number = _f(0.2, "m", "Width W of the bin", gt=0)
     fill_height: Number = _f(0.2, "m", "Height H of the initial fill above the orifice", gt=0)
     bin_height: Number = _f(0.25, "m", "Height of the vessel above the orifice (the open top)",
@@ -379,7 +381,24 @@ class SiloGeometry(_Geometry):
         x = d + h * math.tan(math.radians(self.hopper_angle))
         return 0.5 * (d + x) * h
 
+    @property
+    def fill_volume(self) -> float:
+        """Volume of the initial fill of the cylindrical silo or conical hopper (axisymmetric:
+        x = r, the orifice's diameter D, the bin's W) [m^3]: pi R^2 (H - y_h) plus the frustum
+        pi y_h (R^2 + R d + d^2)/3 (d = D/2, R = W/2), or the frustum up to H."""
+        r, d, h, yh = 0.5 * self.width, 0.5 * self.orifice_width, self.fill_height, self.hopper_top
+        if h >= yh:
+            return math.pi * r**2 * (h - yh) + math.pi * yh * (r**2 + r * d + d**2) / 3.0
+        x = d + h * math.tan(math.radians(self.hopper_angle))
+        return math.pi * h * (x**2 + x * d + d**2) / 3.0
+
     def describe(self) -> str:
+        if self.symmetry == "axisymmetric":
+            kind = ("cylindrical silo" if self.hopper_angle is None
+                    else f"conical hopper (half-angle {self.hopper_angle:g} deg)")
+            return (f"{kind}: diameter {self.width:g} m, fill {self.fill_height:g} m, orifice "
+                    f"diameter {self.orifice_width:g} m, vessel height {self.bin_height:g} m, "
+                    f"fill volume {self.fill_volume:.4g} m^3")
         kind = ("flat-bottomed silo" if self.hopper_angle is None
                 else f"hopper (half-angle {self.hopper_angle:g} deg)")
         return (f"{kind}: width {self.width:g} m, fill {self.fill_height:g} m, orifice "

@@ -122,11 +122,16 @@ class Config(_Section):
     def _axisymmetric(self) -> None:
         """What the axisymmetric coordinates (``geometry.symmetry``) support today: the moving
         mesh's regularized flow (Picard or Newton) of a body of revolution on a flat bed, the
-        axis x = 0 a frictionless symmetry side."""
+        axis x = 0 a frictionless symmetry side; the two-phase model on its uniform mesh (the
+        adaptive box's remap conserves ∫ c dA, not ∫ 2πr c dA)."""
         first = "geometry.symmetry = 'axisymmetric'"
-        if self.model.name != "stokes":
-            raise ConfigError(f"{first}: only with model.name = stokes (got {self.model.name}); "
-                              f"use geometry.symmetry = planar")
+        if self.model.name not in ("stokes", "two_phase"):
+            raise ConfigError(f"{first}: only with model.name = stokes or two_phase (got "
+                              f"{self.model.name}); use geometry.symmetry = planar")
+        m = self.model
+        if m.name == "two_phase" and m.min_cell is not None:
+            raise ConfigError(f"model.min_cell = {_fmt(m.min_cell)}: must be null with {first} "
+                              f"(the adaptive box's remap conserves the area, not the volume)")
         if self.numerics.method != "regularized":
             raise ConfigError(f"{first}: only with numerics.method = regularized (got "
                               f"{self.numerics.method}: its multipliers have no hoop component)")

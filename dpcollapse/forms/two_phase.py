@@ -17,13 +17,18 @@ facet (outflow only at the boundary: the light fluid enters) and an interface-co
 flux towards the fuller cell, C |u·n| a_f c_donor (1 − c_receiver), a_f the facet's alignment
 with the interface normal (``compression_flux``, ``interface_alignment``).
 Each flux is single-valued on a facet, so Σ_K |K| c_K changes only by the boundary outflow.
+
+Axisymmetric (``geometry.symmetry``, issue 52): the same terms with the measures 2πr dx and
+2πr ds (the caller weights them, ``rheology.coordinates``), D(u) with the hoop rate u_r/r
+(the law's ``coordinates``) and ∇·u = ∂_r u_r + u_r/r + ∂_z u_z in the grad-div term.
 """
 
 from __future__ import annotations
 
 import ufl
 
-from dpcollapse.rheology.kinematics import regularized_secant, strain_rate
+from dpcollapse.rheology.coordinates import PLANAR
+from dpcollapse.rheology.kinematics import regularized_secant
 
 
 def mixture(c, granular, light):
@@ -125,6 +130,8 @@ class MixtureRheology:
         self.yield_weighting = _one_of(yield_weighting, YIELD_WEIGHTINGS, "yield weighting")
         self.cohesion = law.cohesion
         self.viscosity_cap = law.viscosity_cap
+        #: the granular law's (``rheology.coordinates``): D(u) and |D| with the hoop rate
+        self.coordinates = getattr(law, "coordinates", PLANAR)
 
     def _mix(self, granular, light):
         return viscosity_mixture(self.c, granular, light, self.average)
@@ -140,7 +147,7 @@ class MixtureRheology:
             return self.law.secant_viscosity(u, p, epsilon)
         share = yield_weight(self.c, self.yield_weighting) / ufl.max_value(self.c, FRACTION_FLOOR)
         return regularized_secant(share * self.law.yield_stress(p), self.law.rate_viscosity(u, p, epsilon),
-                                  u, epsilon, self.law.viscosity_cap)
+                                  u, epsilon, self.law.viscosity_cap, self.coordinates)
 
     def rate_viscosity(self, u, p, epsilon):
         """η_g and η_a averaged (arithmetic: c η_g + (1 − c) η_a) [Pa s]."""
@@ -155,7 +162,7 @@ class MixtureRheology:
         return self._mix(self._granular_secant(u, p, epsilon), 2.0 * self.eta_a)
 
     def deviatoric_stress(self, u, p, epsilon):
-        return self.secant_viscosity(u, p, epsilon) * strain_rate(u)
+        return self.secant_viscosity(u, p, epsilon) * self.coordinates.strain_rate(u)
 
     def diagnostic_fields(self, u, p, epsilon) -> dict:
         return self.law.diagnostic_fields(u, p, epsilon)
@@ -291,12 +298,14 @@ def outflow_rate(u, v, n, dS, ds, coefficient):
     return (rate_plus * v('+') + rate_minus * v('-')) * dS + _positive(ufl.dot(u, n)) * v * ds
 
 
-def grad_div(coefficient, secant_viscosity, u, v, dx):
+def grad_div(coefficient, secant_viscosity, u, v, dx, coordinates=PLANAR):
     """γ ∫ S (∇·u)(∇·v) dx: the grad-div term (Olshanskii & Reusken 2004) with the local secant
     viscosity S of the mixture as its scale. It vanishes for an exactly divergence-free u; on
     Taylor–Hood P2/P1 it pulls the cellwise divergence ∫_K ∇·u, which the volume fraction's
-    fluxes see, towards zero, in the stiff granular phase as much as in the light fluid."""
-    return coefficient * secant_viscosity * ufl.div(u) * ufl.div(v) * dx
+    fluxes see, towards zero, in the stiff granular phase as much as in the light fluid.
+    (``coordinates``: ∇·u of ``rheology.coordinates``; dx the caller's, weighted or not.)"""
+    div = coordinates.divergence
+    return coefficient * secant_viscosity * div(u) * div(v) * dx
 
 
 def skew_convection(rho, u_iter, u, v, n, dx, ds_open):

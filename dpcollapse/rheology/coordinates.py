@@ -44,6 +44,10 @@ class WeightedMeasure:
     def __rmul__(self, integrand):
         return (integrand * self.weight) * self.measure
 
+    def ufl_domain(self):
+        """The mesh of the measure (as ``ufl.Measure.ufl_domain``: Nitsche's cell size)."""
+        return self.measure.ufl_domain()
+
     def __call__(self, *args, **kwargs) -> WeightedMeasure:
         return WeightedMeasure(self.measure(*args, **kwargs), self.weight)
 

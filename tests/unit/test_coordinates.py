@@ -144,7 +144,11 @@ def test_axisymmetric_column_loads():
         (["geometry.bed_angle=10"], "geometry.bed_angle = 10"),
         (["boundary.channel_width=0.1"], "boundary.channel_width = 0.1"),
         (["boundary.surface_tension=0.1"], "boundary.surface_tension = 0.1"),
-        (["model.name=two_phase"], "only with model.name = stokes"),
+        (["model.name=savage_hutter"], "only with model.name = stokes or two_phase"),
+        (
+            ["model.name=two_phase", "model.min_cell=0.005", "geometry.mesh_size=0.01"],
+            "model.min_cell = 0.005",
+        ),
         (["numerics.linear_solver=iterative"], "numerics.linear_solver = 'iterative'"),
         (["numerics.step_conserve_area=true"], "numerics.step_conserve_area = true"),
     ],

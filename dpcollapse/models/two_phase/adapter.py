@@ -19,6 +19,13 @@ the one owner of geometry): the column's and the erodible layer's box has the be
 ``boundary.bed_condition``, the symmetry plane or wall x = 0, the slip right side and the open
 top (σ·n = 0: the light fluid leaves and enters freely, and the pressure needs no gauge); the
 silo (``scenes.silo``) its bin, walls and orifice (outflow).
+
+Axisymmetric (``geometry.symmetry: axisymmetric``, issue 52): the mesh is the (r, z)
+half-plane, x = r; the flow and c's transport carry the measure 2πr (``flow``), the initial c
+is the exact overlap in r dA, and the measures are the body of revolution's: ``area`` its
+granular volume 2π∫ r c dx [m³] (as on the moving mesh), the kinetic energy [J], the
+outflow and escaped volumes [m³], a bin's discharge rate ρ_b (volume through the orifice)/Δt
+[kg/s] and its mass [kg]; h(x) = ∫ c dz stays a height, front and heights radii and heights.
 """
 
 from __future__ import annotations
@@ -48,6 +55,7 @@ from dpcollapse.models.two_phase.fraction import owned_triangles
 from dpcollapse.models.two_phase.overlap import union_fraction
 from dpcollapse.models.two_phase.remap import strip_overlaps
 from dpcollapse.rheology.choice import law_from_material
+from dpcollapse.rheology.coordinates import PLANAR, coordinates
 from dpcollapse.scenes.base import Container, film_threshold
 from dpcollapse.scenes.registry import scene
 
@@ -89,14 +97,22 @@ def adaptive_domain(cfg, box: tuple[float, float]) -> AdaptiveBox:
 
 def make_flow(tagged: TaggedMesh, cfg, vessel: Container) -> TwoPhaseFlow:
     m, model = cfg.material, cfg.model
+    coords = coordinates(cfg.geometry.coordinates)     # geometry.symmetry
     params = FlowParameters(density=m.density, gravity=m.gravity,
                             bed_angle=math.radians(cfg.geometry.bed_angle),
-                            rheology=law_from_material(cfg.material), boundaries=vessel.boundaries)
+                            rheology=law_from_material(cfg.material, coords),
+                            boundaries=vessel.boundaries, coordinates=coords)
     light = LightFluid(model.air_density, model.air_viscosity, model.courant, model.compression,
                        model.grad_div, model.viscosity_average, model.yield_weighting,
                        model.grain_pressure, model.cut_cell_pressure, model.inertia,
                        model.compression_direction)
     return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
+
+
+def _triangle_areas(triangles: np.ndarray) -> np.ndarray:
+    """|K| of each triangle (n, 3, 2) [m²]."""
+    a, b = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
+    return 0.5 * np.abs(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
 
 
 def _shortest_edges(triangles: np.ndarray) -> np.ndarray:
@@ -107,7 +123,8 @@ def _shortest_edges(triangles: np.ndarray) -> np.ndarray:
 #: a bin's measures (the half vessel; Q for the whole symmetric silo): the discharge rate Q
 #: [kg/(m s)] = 2 ρ_s (volume through the orifice in the step)/Δt, the granular area that has
 #: left [m²], the fill height floor(x_w) + ∫ c dy at the side wall's strip x_w [m], the
-#: granular mass in the whole bin 2 ρ_s ∫ c dx [kg/m]
+#: granular mass in the whole bin 2 ρ_s ∫ c dx [kg/m]. Axisymmetric: the volumes are the
+#: whole body's, Q = ρ_s (volume)/Δt [kg/s], the outflow volume [m³], the mass ρ_s ∫ 2πr c [kg]
 BIN_MEASURES = ("discharge_rate", "outflow_area", "fill_height", "bin_mass")
 
 
@@ -128,6 +145,11 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
         self.comm = mesh.comm
         self.flow = flow = make_flow(tagged, cfg, vessel)
         self.fraction = flow.fraction
+        coords = flow.params.coordinates
+        self.radial = coords != PLANAR
+        # planar: the half vessel's measures doubled for the whole symmetric bin; axisymmetric:
+        # the body of revolution's volumes are already the whole silo's
+        self.whole = 1.0 if self.radial else 2.0
         model = cfg.model
         fine = cell_sizes(cfg)[0]
         self.film_threshold = film_threshold(law_from_material(cfg.material).grain_scale, fine)
@@ -151,7 +173,9 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
         self._cells = compat.cell_dofs(self.fraction.S0)[:n, 0]
         self._xmax = tri[:, :, 0].max(axis=1)
         self._above = tri[:, :, 1].mean(axis=1) > vessel.front_floor    # cells counted by the mass front
-        self._volume = self.fraction.volume[self._cells] if len(self._cells) else np.zeros(0)
+        # the planar cell areas |K| (the strips' h(x) = ∫ c dy is a height in either coordinates)
+        self._volume = (_triangle_areas(tri) if self.radial else
+                        self.fraction.volume[self._cells] if len(self._cells) else np.zeros(0))
         if is_adaptive(cfg) or vessel.box is None:   # |K ∩ strip_j| (exact: the cells straddle
             # the strips of an unstructured mesh)
             self._strip_cell, self._bin, self._strip_area = strip_overlaps(tri, self.dx_bin, self.nx)
@@ -164,7 +188,7 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
         rho = cfg.material.density
         u, p = ufl.split(flow.solution)
         c = self.fraction.c
-        dx = ufl.dx(domain=mesh)
+        dx = coords.measure(ufl.dx(domain=mesh), mesh)    # axisymmetric: 2πr dx
         # the granular cells (c > fraction_threshold): 1 there, 0 elsewhere (set in measures)
         self._granular = fem.Function(self.fraction.S0)
         energy = 0.5 * rho * c * ufl.inner(flow.u_old, flow.u_old)
@@ -184,7 +208,8 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
     def set_initial(self) -> None:
         """c = |K ∩ ∪P| / |K| in each cell for the scene's initial region ∪P (exact); on the
         erodible layer c_L = |K ∩ layer| / |K| too."""
-        values = union_fraction(owned_triangles(self.mesh), self.vessel.fraction_region)
+        values = union_fraction(owned_triangles(self.mesh), self.vessel.fraction_region,
+                                radial=self.radial)
         c = self.fraction.c
         c.x.array[self._cells] = values
         c.x.scatter_forward()
@@ -194,7 +219,7 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
 
     # ------------------------------------------------------------------ measures
     def area(self) -> float:
-        """∫ c dx [m²]."""
+        """∫ c dx [m²] (axisymmetric: the granular volume 2π∫ r c dx [m³])."""
         return self.fraction.integral()
 
     def thickness(self) -> np.ndarray:
@@ -275,16 +300,17 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
         rho = self.cfg.material.density
         volume, dt = self.fraction.step_outflow
         area = self.area()
+        whole = self.whole
         if dt > 0 and volume != self._last_outflow:
-            self._discharge.append((dt, 2.0 * rho * volume / dt))
+            self._discharge.append((dt, whole * rho * volume / dt))
         self._last_outflow = volume
         left = self.fraction.outflow_volume
         wall_x = (self.nx - 0.5) * self.dx_bin
         initial = area + left
-        return {"discharge_rate": 2.0 * rho * volume / dt if dt > 0 else 0.0,
+        return {"discharge_rate": whole * rho * volume / dt if dt > 0 else 0.0,
                 "outflow_area": left,
                 "fill_height": float(self.vessel.floor(wall_x)) + float(h[-1]),
-                "bin_mass": 2.0 * rho * area,
+                "bin_mass": whole * rho * area,
                 "emptied": initial > 0 and area < self.cfg.geometry.empty_fraction * initial}
 
     def stop_reason(self, measures: dict) -> str | None:

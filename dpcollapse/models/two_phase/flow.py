@@ -17,6 +17,13 @@ the iterate), the convection in skew-symmetric form and the open top's backflow 
 The mixture coefficients use c clamped to [0, 1] (the advected c may leave it by its overshoot).
 Passive tracers (``add_tracer``: the erodible layer's fraction c_L) are advected by the same
 u^{n+1} with the same scheme and the same sub-steps as c; they do not enter the flow.
+
+Axisymmetric (``geometry.symmetry``, the flow's ``params.coordinates``; issue 52): every
+integral above with the weight 2πr (dx and ds, the convection's, the time derivative's, the
+ambient traction's and the grad-div term's too), D(u) with the hoop rate u_r/r and
+∇·u = ∂_r u_r + u_r/r + ∂_z u_z (``forms.picard``), and c transported conservatively in
+2πr dx (``fraction.VolumeFraction``). The axis x = 0 is the scene's slip side (u_r = 0, no
+friction).
 """
 
 from __future__ import annotations
@@ -118,7 +125,8 @@ class TwoPhaseFlow(RegularizedFlow):
     def add_tracer(self, name: str) -> VolumeFraction:
         """A DG0 fraction named ``name`` advected with c (same scheme, same sub-steps)."""
         tracer = VolumeFraction(self.mesh, self.light.courant, self.light.compression, name=name,
-                                direction=self.light.compression_direction)
+                                direction=self.light.compression_direction,
+                                coordinates=self.params.coordinates)
         tracer.bind(ufl.split(self.solution)[0])
         self.tracers[name] = tracer
         return tracer
@@ -127,8 +135,9 @@ class TwoPhaseFlow(RegularizedFlow):
     def _build_forms(self) -> None:
         mesh, p, light = self.mesh, self.params, self.light
         self.surface_gamma = None   # no surface tension: the surface is not a boundary here
+        coords = p.coordinates      # planar, or axisymmetric: the measures weighted by 2πr
         self.fraction = VolumeFraction(mesh, light.courant, light.compression,
-                                       direction=light.compression_direction)
+                                       direction=light.compression_direction, coordinates=coords)
         c = self.fraction.c
         clamped = ufl.min_value(ufl.max_value(c, 0.0), 1.0)
         (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
@@ -153,7 +162,8 @@ class TwoPhaseFlow(RegularizedFlow):
             u_iter=u_k, p_iter=p_k, u_old=self.u_old, mesh_velocity=self.mesh_velocity,
             trial=(u, pr), test=(v, q), n=n, dx=dx, ds=ds,
             friction_walls=[(name, mu, tag) for name, mu, tag in walls if self._has_tag(tag)],
-            weak_walls=self.weak_walls(), p_walls=p_walls)
+            weak_walls=self.weak_walls(), p_walls=p_walls, coordinates=coords)
+        dx, ds = coords.measure(dx, mesh), coords.measure(ds, mesh)   # planar: themselves
         # the convection in skew-symmetric form: no kinetic energy from the jumps of ρ(c);
         # backflow stabilization on every open side (the top, an orifice)
         open_tags = self._tags_of(BoundaryKind.FREE_SURFACE, BoundaryKind.OUTFLOW)
@@ -174,7 +184,7 @@ class TwoPhaseFlow(RegularizedFlow):
         if light.grad_div > 0:
             # the cellwise divergence the fluxes of c see (c > 1 in converging cells, creep)
             self.terms["grad_div"] = grad_div(light.grad_div, law.secant_viscosity(u_k, p_k, eps),
-                                              u, v, dx)
+                                              u, v, dx, coords)
         self.system = self._make_system(sum(self.terms.values()), sum(self.rhs_terms.values()))
 
     def schur_viscosity(self):

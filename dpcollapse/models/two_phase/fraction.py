@@ -14,6 +14,11 @@ advected with the sub-step count of c.
   ∫ c dx + ``outflow_volume`` (the watched outflow sides, a silo's orifice) +
   ``escaped_volume`` (every other side: the open top a haze of c rises through) is
   conserved to round-off; both counted per sub-step with the fluxes' own values.
+* Axisymmetric (``coordinates`` = ``rheology.coordinates.AXISYMMETRIC``, issue 52): the cell
+  "volumes" |K| = ∫_K 2πr dx and every flux ∫_f … 2πr ds carry the weight 2πr, so the same
+  single-valued facet fluxes conserve Σ_K |K| c_K = ∫ 2πr c dx (the body's granular volume
+  [m³]) to round-off, with ``outflow_volume`` and ``escaped_volume`` in m³; the cellwise
+  divergence is the axisymmetric ∂_r u_r + u_r/r + ∂_z u_z.
 """
 
 from __future__ import annotations
@@ -37,6 +42,7 @@ from dpcollapse.forms.two_phase import (
 from dpcollapse.geometry.regions import cell_triangles
 from dpcollapse.models.two_phase.fluxes import StepFluxes
 from dpcollapse.models.two_phase.remap import remap
+from dpcollapse.rheology.coordinates import PLANAR
 
 
 def owned_triangles(mesh) -> np.ndarray:
@@ -49,8 +55,10 @@ class VolumeFraction:
     mesh; the flow's forms need c before its velocity exists)."""
 
     def __init__(self, mesh, courant: float, compression: float, name: str = "volume_fraction",
-                 direction: str = "normal"):
+                 direction: str = "normal", coordinates=PLANAR):
         self.mesh, self.comm = mesh, mesh.comm
+        #: planar (|K| the area, per unit depth) or axisymmetric (|K| = ∫_K 2πr dx)
+        self.coordinates = coordinates
         self.courant, self.compression = courant, compression
         self.direction = direction   # of the compression: "facet" or "normal" (to the interface)
         self._vertex = None          # c̄: c averaged to the vertices (P1), for "normal"
@@ -62,30 +70,35 @@ class VolumeFraction:
         self.substeps = 0                                    # of the last advance
         self._n = S0.dofmap.index_map.size_local
         v = ufl.TestFunction(S0)
-        cell = fem.form(v * ufl.dx(domain=mesh))
+        dx = self._measure(ufl.dx)
+        cell = fem.form(v * dx)
         volume = compat.create_vector(cell)
         fem_petsc.assemble_vector(volume, cell)
         volume.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         self.volume = volume.array_r[:self._n].copy()       # |K| of the owned cells
         volume.destroy()
-        self._integral = fem.form(self.c * ufl.dx(domain=mesh))
+        self._integral = fem.form(self.c * dx)
         self._b = None
         self._fluxes = None           # the sub-steps' flux matrices (``bind``)
         self._outflow = None          # ∫_out (u·n)⁺ v ds: the outflow sides' weights (``watch_outflow``)
-        self.outflow_volume = 0.0     # material that left through the outflow sides [m²]
-        self.escaped_volume = 0.0     # material that left through the other sides [m²]
+        self.outflow_volume = 0.0     # material that left through the outflow sides [m², axi m³]
+        self.escaped_volume = 0.0     # material that left through the other sides [m², axi m³]
         self._boundary = None         # ∫_∂Ω (u·n)⁺ v ds: every side's weights (``bind``)
         self.pending_outflow = 0.0    # of the step not yet accepted
         self.pending_escaped = 0.0
         self.step_outflow = (0.0, 0.0)  # (volume, Δt) of the last accepted step
         self._pending_dt = 0.0
 
+    def _measure(self, measure):
+        """``measure`` on this mesh, weighted by 2πr when axisymmetric."""
+        return self.coordinates.measure(measure(domain=self.mesh), self.mesh)
+
     def bind(self, u) -> None:
         """Build the flux and rate forms for the velocity ``u``."""
         mesh, C = self.mesh, self.compression
         v, trial = ufl.TestFunction(self.S0), ufl.TrialFunction(self.S0)
         n = ufl.FacetNormal(mesh)
-        dS, ds = ufl.dS(domain=mesh), ufl.ds(domain=mesh)
+        dS, ds = self._measure(ufl.dS), self._measure(ufl.ds)
         gradient = None
         if self.direction == "normal" and C > 0:
             if self._vertex is None:
@@ -95,7 +108,7 @@ class VolumeFraction:
                                   fem.form(compression_weights(trial, u, v, n, dS, gradient)),
                                   self.S0.dofmap.index_map, C)
         self._rate = fem.form(outflow_rate(u, v, n, dS, ds, C))
-        self._divergence = fem.form(ufl.div(u) * v * ufl.dx(domain=mesh))
+        self._divergence = fem.form(self.coordinates.divergence(u) * v * self._measure(ufl.dx))
         self._boundary = fem.form(outflow_volume_rate(v, u, n, ds))
         self._b = compat.create_vector(self._rate)
         self._u = u
@@ -106,7 +119,8 @@ class VolumeFraction:
         fluxes take out there, so ∫ c dx + ``outflow_volume`` is conserved to round-off."""
         n = ufl.FacetNormal(self.mesh)
         v = ufl.TestFunction(self.S0)
-        self._outflow = fem.form(outflow_volume_rate(v, self._u, n, ds_out))
+        self._outflow = fem.form(outflow_volume_rate(v, self._u, n,
+                                                     self.coordinates.measure(ds_out, self.mesh)))
 
     def set_values(self, owned_values: np.ndarray) -> None:
         """cⁿ of the owned cells (in dof order); ghosts updated."""
@@ -202,7 +216,7 @@ class VolumeFraction:
         self.pending = None
 
     def integral(self) -> float:
-        """∫ c dx [m²]."""
+        """∫ c dx [m²] (axisymmetric: ∫ 2πr c dx [m³])."""
         return self.comm.allreduce(fem.assemble_scalar(self._integral), op=MPI.SUM)
 
     def bounds(self) -> tuple[float, float]:
