@@ -131,7 +131,7 @@ class MixtureRheology:
         self.cohesion = law.cohesion
         self.viscosity_cap = law.viscosity_cap
         #: the granular law's (``rheology.coordinates``): D(u) and |D| with the hoop rate
-        self.coordinates = getattr(law, "coordinates", PLANAR)
+        self.coordinates = law.coordinates
 
     def _mix(self, granular, light):
         return viscosity_mixture(self.c, granular, light, self.average)
