@@ -22,6 +22,7 @@ import yaml  # noqa: E402
 
 
 def cases(runs: Path):
+    """(D, Q, spread, ρ, d, status, window) of each finished case, sorted by D."""
     out = []
     for run in sorted(p.parent for p in runs.rglob("run.json")):
         info = json.loads((run / "run.json").read_text())
@@ -30,7 +31,8 @@ def cases(runs: Path):
         if "discharge_steady" in s:
             out.append((cfg["geometry"]["orifice_width"], s["discharge_steady"],
                         s["discharge_spread"], cfg["material"]["density"],
-                        cfg["material"]["grain_diameter"], info["status"]))
+                        cfg["material"]["grain_diameter"], info["status"],
+                        s.get("discharge_window")))
     return sorted(out)
 
 

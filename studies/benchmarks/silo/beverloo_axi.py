@@ -13,7 +13,6 @@ values):
 
 SILO_RUN: runs (configs/silo_axi.yaml) whose Q(t) is drawn, with the plateau's window.
 """
-import json
 import math
 import sys
 from pathlib import Path
@@ -23,24 +22,12 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-import yaml  # noqa: E402
 from scipy.optimize import curve_fit  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from beverloo import cases  # noqa: E402  (the planar sweep's reader: the same run.json keys)
+
 G = 9.81
-
-
-def cases(runs: Path):
-    """(D, Q, spread, ρ, d, status, window) of each finished case, sorted by D."""
-    out = []
-    for run in sorted(p.parent for p in runs.rglob("run.json")):
-        info = json.loads((run / "run.json").read_text())
-        cfg = yaml.safe_load((run / "config.yaml").read_text())
-        s = info.get("summary", {})
-        if "discharge_steady" in s:
-            out.append((cfg["geometry"]["orifice_width"], s["discharge_steady"],
-                        s["discharge_spread"], cfg["material"]["density"],
-                        cfg["material"]["grain_diameter"], info["status"], s["discharge_window"]))
-    return sorted(out)
 
 
 def power_law(D, Q):
