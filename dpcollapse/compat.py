@@ -296,17 +296,16 @@ def create_rectangle(comm: MPI.Comm, lower, upper, n) -> dmesh.Mesh:
                                   ghost_mode=dmesh.GhostMode.shared_facet)
 
 
-def gmsh_model_to_mesh(model, comm: MPI.Comm, rank: int = 0, gdim: int = 2,
-                       shared_facets: bool = False):
-    """(mesh, cell_tags, facet_tags) from a gmsh model that lives on ``rank``;
-    ``shared_facets``: ghosted by shared facets, as interior-facet integrals (dS) across
-    ranks need (DOLFINx ≥ 0.9 refuses them otherwise)."""
+def gmsh_model_to_mesh(model, comm: MPI.Comm, rank: int = 0, gdim: int = 2):
+    """(mesh, cell_tags, facet_tags) from a gmsh model that lives on ``rank``, ghosted by
+    shared facets on every version (0.5 always did): interior-facet integrals (dS) across
+    ranks need it, and DOLFINx ≥ 0.9 refuses them otherwise."""
     if _V010:
         from dolfinx.io import gmsh as _gmsh_io
     else:
         from dolfinx.io import gmshio as _gmsh_io
     kwargs = {}
-    if shared_facets and _BASIX_ELEMENTS:
+    if _BASIX_ELEMENTS:
         # 0.5's model_to_mesh always ghosts by shared facets and takes no partitioner
         try:
             part = dmesh.create_cell_partitioner(dmesh.GhostMode.shared_facet)

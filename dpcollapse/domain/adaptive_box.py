@@ -124,11 +124,9 @@ def adaptive_box(comm, length: float, height: float, size: SizeField,
         with gmsh_session() as gmsh:
             generate_bounded(gmsh, lambda g: _build_box_model(g, length, height, grid, sizes,
                                                              size.max_cell))  # exit 4, no hang
-            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(
-                gmsh.model, comm, 0, gdim=2, shared_facets=True
-            )
+            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
     else:
-        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2, shared_facets=True)
+        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
     mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
     return TaggedMesh(mesh, facet_tags, cell_tags)
 

@@ -241,17 +241,13 @@ def _mesh_on_root(comm: MPI.Comm, build: Callable) -> TaggedMesh:
     def generate(gmsh):
         generate_bounded(gmsh, build)
 
-    # ghosted by shared facets on every version (0.5 always did): the two-phase model's
-    # interior-facet fluxes (dS) on a scene's own vessel (the silo) need it across ranks
     if comm.rank == 0:
         with gmsh_session() as gmsh:
             parallel.on_root(comm, lambda: generate(gmsh))
-            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2,
-                                                                    shared_facets=True)
+            mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(gmsh.model, comm, 0, gdim=2)
     else:
         parallel.on_root(comm, lambda: None)
-        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2,
-                                                                shared_facets=True)
+        mesh, cell_tags, facet_tags = compat.gmsh_model_to_mesh(None, comm, 0, gdim=2)
     mesh.topology.create_connectivity(mesh.topology.dim - 1, mesh.topology.dim)
     return TaggedMesh(mesh, facet_tags, cell_tags)
 
