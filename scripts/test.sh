@@ -27,8 +27,10 @@ xdist=()
 [ "$jobs" != "0" ] && xdist=(-n "$jobs" --dist worksteal)
 
 # The last line pytest prints ("N passed, M skipped in S s"), or a note when there is none.
+# Under mpirun the two ranks' closing lines can arrive glued on one line (CI's Open MPI 5):
+# keep the text up to the first "in S s".
 closing() { grep -aE '^=*[ ]*[0-9]+ (passed|failed|error|skipped|deselected)|no tests ran' "$1" \
-              | tail -1 | sed -E 's/^=+ //; s/ =+$//'; }
+              | tail -1 | sed -E 's/^=+ //; s/ =+$//; s/( in [0-9.]+s( \([0-9:]+\))?).*/\1/'; }
 # pytest's exit 5 is "no test selected" (a -k or -m that matched nothing): not a failure.
 ok() { [ "$1" -eq 0 ] || [ "$1" -eq 5 ]; }
 
@@ -51,7 +53,7 @@ mpi_time=$((SECONDS - start))
 echo "== summary"
 echo "serial suite: $(closing "$logs/serial") (exit $serial, ${serial_time} s)"
 echo "MPI suite (2 ranks): $(closing "$logs/mpi") (exit $mpi, ${mpi_time} s)"
-count() { closing "$1" | grep -oE "[0-9]+ $2" | grep -oE '^[0-9]+' || echo 0; }
+count() { closing "$1" | grep -oE "[0-9]+ $2" | head -1 | grep -oE '^[0-9]+' || echo 0; }
 passed=$(( $(count "$logs/serial" passed) + $(count "$logs/mpi" passed) ))
 failed=$(( $(count "$logs/serial" failed) + $(count "$logs/mpi" failed) \
            + $(count "$logs/serial" error) + $(count "$logs/mpi" error) ))
