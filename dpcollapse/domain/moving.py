@@ -77,7 +77,6 @@ class MovingDomain:
         self.surgery = surgery
         #: the chained boundary of the current mesh, for the contact check of every step
         self._boundary_loops = BoundaryLoops()
-        self._regions_of = (None, True)   # (tagged mesh, one region?): its tags change with it
         #: the surgeries done by remeshes (``geometry.surgery.Surgery``), not yet taken
         self.surgeries: list = []
         #: run.json's ``surgery_events``: one entry per surgery of this run segment
@@ -123,12 +122,6 @@ class MovingDomain:
         disc.mesh.geometry.x[:] = old_x
         self._attempt = 0
 
-    def _one_region(self, tagged) -> bool:
-        """``_one_region`` once per mesh (two collectives), not at every step."""
-        if self._regions_of[0] is not tagged:
-            self._regions_of = (tagged, _one_region(tagged))
-        return self._regions_of[1]
-
     def take_events(self) -> dict[str, float]:
         """Since the last call: nose nodes that landed on the bed (``landings``), boundary
         surgeries (``surgeries``) and their area change [m²] (``surgery_area_change``)."""
@@ -173,7 +166,7 @@ class MovingDomain:
         threshold = min(self.remesh_min_angle, REMESH_DEGRADATION * after)
         if q["min_angle"] < threshold and since >= REMESH_COOLDOWN:
             return f"min angle {q['min_angle']:.1f}°"
-        if self.surgery and since >= REMESH_COOLDOWN and self._one_region(disc.tagged):
+        if self.surgery and since >= REMESH_COOLDOWN:
             contact = boundary_contact(disc.tagged, self.mesh_size, self._boundary_loops)
             if contact:
                 return f"boundary {contact}"
@@ -213,6 +206,8 @@ class MovingDomain:
                      "relative_area_change": done.area_change / state.area0,
                      "closed_pockets": len(done.closed_pockets),
                      "closed_area": float(sum(done.closed_pockets)), "holes": len(done.holes)}
+            if done.regions:      # two regions: each one's area before and its changes
+                event["regions"] = done.regions
             self.surgery_events.append(event)
             log.info("surgery at t = %.4f s (remesh %d): %s (%+.2e of the initial area)",
                      state.t, state.remeshes, event["what"], event["relative_area_change"])
@@ -229,16 +224,3 @@ def _below_floor(min_angle: float) -> str | None:
     if min_angle < MIN_ANGLE_FLOOR:
         return f"smallest angle of {min_angle:.2f}° (< the floor {MIN_ANGLE_FLOOR:g}°)"
     return None
-
-
-def _one_region(tagged) -> bool:
-    """Whether the mesh's cells are of one material region (the surgery's domain; several
-    regions are remeshed along their interface, ``domain.region_remesh``, without it)."""
-    from mpi4py import MPI
-
-    if tagged.cell_tags is None:
-        return True
-    values = tagged.cell_tags.values
-    lo = tagged.mesh.comm.allreduce(int(values.min()) if len(values) else 2**31, op=MPI.MIN)
-    hi = tagged.mesh.comm.allreduce(int(values.max()) if len(values) else -2**31, op=MPI.MAX)
-    return lo >= hi

@@ -12,6 +12,13 @@ tests/unit/test_erodible.py). So, when the cells carry two tags that meet along 
    (``geometry.regions.split_polygon``) and meshed as one conforming mesh
    (``geometry.mesher.mesh_regions``), the cells tagged by region.
 
+With ``numerics.remesh_surgery`` or ``numerics.remesh_conserve_area`` two regions are
+instead rebuilt region by region (``geometry.region_surgery``): a nose that lands on the
+layer merges into it by the surgery of the column (the mass rebuilt as the union minus the
+layer), pockets between the mass and the layer are kept or closed by the same rule, and the
+area of each region is put back (``conserve_area``); each surgery is appended to
+``surgeries`` with its per-region area changes.
+
 Otherwise (one region, or an interface that is not one open chain between two boundary
 vertices) the outer boundary is remeshed alone and each new cell takes the tag of the old
 cell that contains its centroid (``carry_regions``).
@@ -23,9 +30,17 @@ import logging
 
 import numpy as np
 
+from dpcollapse import parallel
 from dpcollapse.ale.remesh import boundary_polygon, remesh_domain
-from dpcollapse.geometry.mesher import INTERFACE, SURFACE, TaggedMesh, mesh_regions
+from dpcollapse.geometry.mesher import (
+    INTERFACE,
+    SURFACE,
+    TaggedMesh,
+    boundary_edges,
+    mesh_regions,
+)
 from dpcollapse.geometry.polygon import resample
+from dpcollapse.geometry.region_surgery import rebuild_regions
 from dpcollapse.geometry.regions import (
     carry_regions,
     gather_regions,
@@ -45,7 +60,8 @@ def remesh_regions(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: floa
     number of boundary vertices); see the module docstring. With one region the front
     film trim, the surgery of contacts (``surgery``; each one done appended to
     ``surgeries``) and the area restoration of ``ale.remesh.remesh_domain`` apply; with two
-    the boundary is untangled but not trimmed nor operated on. ``axisymmetric``: the volume of
+    the surgery and each region's area restoration of ``geometry.region_surgery`` (no film
+    trim: the layer itself is thinner than the cells). ``axisymmetric``: the volume of
     the body of revolution is what is put back (``remesh_domain``)."""
     comm = tagged.mesh.comm
     field = gather_regions(tagged)
@@ -55,6 +71,9 @@ def remesh_regions(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: floa
                                             trim_thickness, conserve_area, surgery, surgeries,
                                             axisymmetric=axisymmetric)
         return (new if field is None else carry_regions(tagged, new, field)), d_area, nverts
+    if (surgery or conserve_area) and not axisymmetric:
+        return _rebuilt_regions(tagged, field, tags, mesh_size, surface_mesh_size,
+                                max_area_change, conserve_area, surgery, surgeries)
     poly = boundary_polygon(tagged)
     regions, d_area, nverts = None, 0.0, 0
     if comm.rank == 0:
@@ -88,3 +107,25 @@ def _split_regions(poly, triangles, tags, mesh_size, surface_mesh_size, max_area
     low, high = int(tags.min()), int(tags.max())
     regions = split_polygon(new.points, new.edge_tags, chain, low, high, INTERFACE)
     return regions, d_area, len(new.points)
+
+
+def _rebuilt_regions(tagged, field, tags, mesh_size, surface_mesh_size, max_area_change,
+                     conserve_area, surgery, surgeries):
+    """Two regions rebuilt region by region, with the surgery of contacts and each region's
+    area put back (``geometry.region_surgery.rebuild_regions``)."""
+    comm = tagged.mesh.comm
+    edges, edge_tags = boundary_edges(tagged)
+    hs = surface_mesh_size or mesh_size
+
+    def size_of(tag: int) -> float:
+        return hs if tag == SURFACE else mesh_size
+
+    def build():
+        return rebuild_regions(field.vertices, tags, edges, edge_tags, mesh_size, size_of,
+                               max_area_change, conserve_area, surgery)
+
+    regions, d_area, nverts, done = parallel.on_root(comm, build)
+    if done is not None and surgeries is not None:
+        surgeries.append(done)
+    return (mesh_regions(comm, regions if comm.rank == 0 else None, mesh_size,
+                         surface_mesh_size), d_area, nverts)

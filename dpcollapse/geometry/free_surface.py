@@ -17,7 +17,7 @@ from scipy.spatial import cKDTree
 from dpcollapse.errors import MeshError
 from dpcollapse.geometry.curvature import local_surface_tension_runs
 from dpcollapse.geometry.mesher import boundary_edges
-from dpcollapse.geometry.polygon import chain_boundary
+from dpcollapse.geometry.polygon import chain_boundary, chain_loops, polygon_is_simple
 
 #: Distance [m] under which a dof coordinate is taken to be a surface node (the same
 #: floating-point vertex, up to the rounding of ``tabulate_dof_coordinates``).
@@ -25,15 +25,25 @@ NODE_TOLERANCE = 1e-10
 
 
 def free_surface_runs(tagged, surface_tags) -> list[np.ndarray] | None:
-    """The runs of ``surface_tags`` along the boundary polygon, as (k, 2) point arrays in
-    counter-clockwise order, on rank 0 (None elsewhere). ValueError (on rank 0) when the
-    boundary is not one simple closed loop."""
+    """The runs of ``surface_tags`` along the boundary polygon, as (k, 2) point arrays with
+    the mass on their left (counter-clockwise around the domain), on rank 0 (None
+    elsewhere); the loops of the holes a surgery kept (``geometry.surgery``) are runs too,
+    clockwise. ValueError (on rank 0) when a loop crosses itself."""
     edges, tags = boundary_edges(tagged)
     if edges is None:
         return None
-    poly = chain_boundary(edges, tags)
+    loops = chain_loops(edges, tags)
+    if len(loops) == 1:
+        loops = [chain_boundary(edges, tags)]     # one loop: as before, simple or an error
+    elif not all(polygon_is_simple(loop.points) for loop in loops):
+        raise ValueError("a boundary loop intersects itself")
     wanted = {int(t) for t in surface_tags}
-    return [poly.points[idx] for tag, idx in poly.segments() if tag in wanted]
+    runs = []
+    for k, poly in enumerate(loops):
+        for tag, idx in poly.segments():
+            if tag in wanted:
+                runs.append(poly.points[idx] if k == 0 else poly.points[idx][::-1])
+    return runs
 
 
 def surface_tension_nodes(tagged, surface_tags, gamma_bar: float,

@@ -258,14 +258,15 @@ def build_regions_model(gmsh, regions: list[tuple[np.ndarray, np.ndarray, int]],
     from point i to i+1), sharing the gmsh points and lines of coincident vertices and
     edges, so that the regions' meshes are conforming along their common edges (tagged
     INTERFACE: interior, no physical line). Physical lines: the other edge tags; physical
-    surfaces: the regions' cell tags."""
+    surfaces: the regions' cell tags. A region may carry a fourth item, its holes (a list
+    of (points, edge_tags) loops: pockets a surgery kept inside it)."""
     gmsh.model.add("domain")
     geo = gmsh.model.geo
     point_ids: dict[tuple[float, float], int] = {}
     line_ids: dict[tuple[int, int], int] = {}
     groups: dict[int, list[int]] = {}
     surfaces: dict[int, list[int]] = {}
-    for points, tags, cell_tag in regions:
+    def curve_loop(points, tags):
         points, tags = np.asarray(points, dtype=float), np.asarray(tags)
         n = len(points)
         ids = []
@@ -288,7 +289,11 @@ def build_regions_model(gmsh, regions: list[tuple[np.ndarray, np.ndarray, int]],
             loop.append(line)
             if int(tags[i]) != INTERFACE:
                 groups.setdefault(int(tags[i]), []).append(line)
-        surfaces.setdefault(int(cell_tag), []).append(geo.addPlaneSurface([geo.addCurveLoop(loop)]))
+        return geo.addCurveLoop(loop)
+
+    for points, tags, cell_tag, *holes in regions:
+        loops = [curve_loop(points, tags)] + [curve_loop(*h) for h in (holes[0] if holes else [])]
+        surfaces.setdefault(int(cell_tag), []).append(geo.addPlaneSurface(loops))
     geo.synchronize()
     for tag in sorted(groups):
         gmsh.model.addPhysicalGroup(1, groups[tag], tag)
@@ -300,7 +305,7 @@ def build_regions_model(gmsh, regions: list[tuple[np.ndarray, np.ndarray, int]],
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 1)
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 1)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-    sizes = [size(p, int(t)) for points, tags, _ in regions for p, t in zip(points, tags)]
+    sizes = [size(p, int(t)) for points, tags, *_ in regions for p, t in zip(points, tags)]
     gmsh.option.setNumber("Mesh.MeshSizeMax", float(max(sizes)))
     gmsh.model.mesh.generate(2)
 

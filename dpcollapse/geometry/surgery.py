@@ -61,6 +61,9 @@ class Surgery:
     bed_contacts: int = 0
     closed_pockets: list[float] = field(default_factory=list)   # their areas [m²]
     kept_pockets: list[float] = field(default_factory=list)
+    #: on a two-region mesh (``geometry.region_surgery``), per region name: its area before
+    #: [m²], the surgery's change and the change after the remesh (put back or not) [m²]
+    regions: dict = field(default_factory=dict)
 
     @property
     def area_change(self) -> float:
