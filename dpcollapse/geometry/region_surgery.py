@@ -152,8 +152,8 @@ def _insert_points(pts: np.ndarray, tags: np.ndarray, extra: np.ndarray, tol: fl
     return np.array(new_p), np.array(new_t, dtype=np.int64)
 
 
-def _surgery_regions(done: Surgery, loops: dict, old: list[BoundaryPolygon], mesh_size: float,
-                     scale: float) -> dict[int, tuple[np.ndarray, list[np.ndarray]]]:
+def _surgery_regions(done: Surgery, loops: dict, mesh_size: float, scale: float
+                     ) -> dict[int, tuple[np.ndarray, list[np.ndarray]]]:
     """{tag: (outer points, [hole points])} of L' = L and M' = U \\ L (module docstring)."""
     import shapely
     from shapely.geometry import Polygon
@@ -243,7 +243,7 @@ def rebuild_regions(triangles: np.ndarray, tags: np.ndarray, edges: np.ndarray,
         if closed:
             done.closed_pockets += closed
             done.holes, done.area_after = kept, done.area_after + sum(closed)
-        shapes = _surgery_regions(done, loops, old, mesh_size, scale)
+        shapes = _surgery_regions(done, loops, mesh_size, scale)
         cut = {t: signed_area(o) - sum(abs(signed_area(h)) for h in hs)
                for t, (o, hs) in shapes.items()}
         polys = {}
