@@ -238,6 +238,11 @@ def rebuild_regions(triangles: np.ndarray, tags: np.ndarray, edges: np.ndarray,
         raise ValueError(f"{len(loops)} material regions (two expected)")
     before = {t: _area(ls) for t, ls in loops.items()}
     done = operate(old[0], mesh_size, old[1:]) if surgery else None
+    if done is None and surgery:       # a kept pocket that shrank below A_close: closed
+        _, closed = close_small_holes(old[1:], mesh_size)
+        if closed:
+            area = old[0].area - sum(abs(h.area) for h in old[1:])
+            done = Surgery(old[0], old[1:], area, area, closed_pockets=[])
     if done is not None:
         kept, closed = close_small_holes(done.holes, mesh_size)
         if closed:

@@ -60,7 +60,7 @@ def _remesh(tagged, done):
 
 @pytest.mark.mpi
 def test_nose_over_the_layer_keeps_a_large_pocket(comm):
-    """The tip 0.05 h above the layer: one surgery; the 7.5 cm × 7.5 cm pocket between the
+    """The tip 0.05 h above the layer: one surgery; the 8 cm × 7.5 cm pocket between the
     mass and the layer stays (a second boundary loop, free surface); the surgery's own
     change is the bridged gap (≥ 0, < 1e-3 of the mass) and lands in the mass only; after
     the remesh each region has its area of before (1e-12); a second remesh does nothing."""
@@ -110,6 +110,29 @@ def test_nose_over_the_layer_closes_a_small_pocket(comm):
     after = _region_areas(new, comm)
     for tag in (DOMAIN, LAYER):
         assert after[tag] == pytest.approx(before[tag], rel=1e-12, abs=1e-15)
+
+
+def test_a_kept_pocket_below_a_cell_is_closed_later(comm):
+    """The pocket kept by a first surgery, remeshed with cells so large that it is below
+    one cell (h = 0.2 m: (√3/4) h² = 0.017 m² > 0.006 m²) and no contact: closed (a
+    surgery event, no hole left), the mass gains the pocket before the put-back."""
+    from dpcollapse.geometry.mesher import boundary_edges, mesh_regions
+    from dpcollapse.geometry.region_surgery import rebuild_regions
+    from dpcollapse.geometry.regions import gather_regions
+
+    new = _remesh(mesh_regions(comm, _nose_over_layer(0.05 * H), H), [])
+    field = gather_regions(new)
+    edges, tags = boundary_edges(new)
+    if comm.rank != 0:
+        return
+    cell_tags = np.rint(field.values[:, 0, 0]).astype(np.int32)
+    regions, _, _, done = rebuild_regions(field.vertices, cell_tags, edges, tags, 0.2,
+                                          lambda tag: H, 1e-12, True, True)
+    assert done is not None and len(done.closed_pockets) == 1 and not done.holes
+    pocket = done.closed_pockets[0]
+    assert 0.95 * 0.08 * 0.075 < pocket < 1.01 * 0.08 * 0.075     # [0.05, 0.13] × [HE, 0.08]
+    assert done.regions["granular_mass"]["surgery_change"] == pytest.approx(pocket, rel=1e-6)
+    assert all(not r[3] for r in regions)
 
 
 def test_nose_through_the_layer_is_counted_once(comm):
