@@ -148,7 +148,9 @@ def observed_order(qc, qm, qf, hc, hm, hf) -> float:
 def power_fit(hs, qs) -> tuple[float, float, float]:
     """Least-squares Q = Q0 + C h^p over any number ≥ 3 of levels: (Q0, C, p) with p the
     minimizer of the linear fit's residual on 0.05 ≤ p ≤ 8 (golden search after a scan); NaNs
-    unless the levels converge monotonically (successive differences of one sign)."""
+    unless the levels converge monotonically (successive differences of one sign) and the
+    minimizer lies inside that range (at its ends the differences do not shrink like a power
+    of ΔX: e.g. the last step larger than the first)."""
     hs, qs = np.asarray(hs, dtype=float), np.asarray(qs, dtype=float)
     d = np.diff(qs)
     if len(hs) < 3 or np.any(d == 0) or not (np.all(d > 0) or np.all(d < 0)):
@@ -170,6 +172,8 @@ def power_fit(hs, qs) -> tuple[float, float, float]:
         else:
             lo = a
     p = 0.5 * (lo + hi)
+    if not ps[0] + 0.01 < p < ps[-1] - 0.01:
+        return math.nan, math.nan, math.nan
     (q0, c), _ = fit(p)
     return float(q0), float(c), float(p)
 

@@ -55,6 +55,10 @@ def test_power_fit_over_four_and_five_levels(p):
 def test_power_fit_refuses_non_monotone_levels():
     assert np.isnan(rigid_pareto.power_fit((0.02, 0.014, 0.01, 0.007), [1.0, 0.9, 0.95, 0.94])[2])
     assert np.isnan(rigid_pareto.power_fit((0.02, 0.01), [1.0, 0.9])[2])   # two levels
+    # monotone but not converging: the step 1 → 0.7 cm larger than 2 → 1.4 cm (the measured
+    # deposit fronts 0.66796, 0.66732, 0.66698, 0.66481 m at 3e-5)
+    assert np.isnan(rigid_pareto.power_fit((0.02, 0.014, 0.01, 0.007),
+                                           [0.66796, 0.66732, 0.66698, 0.66481])[2])
 
 
 def test_richardson_levels_fits_every_scalar_of_four_runs():
