@@ -198,7 +198,7 @@ def richardson_levels(runs: list[dict], log=print) -> dict:
         err = get(runs[-1]) - q0 if q0 == q0 else math.nan
         fits[key] = {"q0": q0, "c": c, "p": p, "finest_error": err}
         log(f"  {key}: " + (f"p = {p:.2f}, Q0 = {q0:.5f} m, the finest run's error {1e3 * err:+.2f} mm"
-                            if p == p else "not monotone over the levels: no fit"))
+                            if p == p else "no power law (not monotone, or the differences do not shrink)"))
     out = dict(out or {})
     out["fits"] = fits
     return out
@@ -272,7 +272,8 @@ def pareto(points: list[tuple[float, float]]) -> list[int]:
     return front
 
 
-def chart(rows: list[dict], png: Path, default: str | None, proposed: str | None) -> None:
+def chart(rows: list[dict], png: Path, default: str | None, proposed: str | None,
+          proposed_label: str = "proposed") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -280,15 +281,17 @@ def chart(rows: list[dict], png: Path, default: str | None, proposed: str | None
 
     sizes = sorted({r["h"] for r in rows})
     tols = sorted({r["tol"] for r in rows})
-    markers = dict(zip(tols, "v^osDph*"))
+    markers = dict(zip(tols, "v^osDph*XP<>d12348"))
     colors = {h: f"C{i}" for i, h in enumerate(sizes)}
-    fig, axes = plt.subplots(1, 3, figsize=(16, 6.0))
+    fig, axes = plt.subplots(1, 3, figsize=(16, 7.0))
     for ax, key, label in zip(axes, ("e_hist", "e_inf", "e_l1"),
                               ("front history max |x_f − ref| [mm]", "profile at rest L∞ [mm]",
                                "profile at rest L¹ [cm²]")):
         for r in rows:
+            rms = r.get("norm", "max") == "rms"
             ax.plot(r["cpu"], r[key], markers[r["tol"]], color=colors[r["h"]], ms=8,
-                    mfc="none" if r["graded"] else colors[r["h"]])
+                    mfc="none" if r["graded"] else colors[r["h"]],
+                    mec="k" if rms else colors[r["h"]], mew=1.6 if rms else 1.0)
         idx = pareto([(r["cpu"], r[key]) for r in rows])
         pts = [(rows[i]["cpu"], rows[i][key]) for i in idx]
         xs, ys = [], []
@@ -296,7 +299,8 @@ def chart(rows: list[dict], png: Path, default: str | None, proposed: str | None
             xs += [x] if k == 0 else [x, x]
             ys += [y] if k == 0 else [pts[k - 1][1], y]
         ax.plot(xs, ys, "k-", lw=1, alpha=0.6, label="Pareto front")
-        for name, tag, col in ((default, "default (1 cm, 3e-4)", "red"), (proposed, "proposed", "green")):
+        for name, tag, col in ((default, "the 1 cm default (max 3e-4)", "red"),
+                               (proposed, proposed_label, "green")):
             for r in rows:
                 if r["name"] == name:
                     ax.plot(r["cpu"], r[key], "o", ms=18, mfc="none", mec=col, mew=2, label=tag)
@@ -311,10 +315,12 @@ def chart(rows: list[dict], png: Path, default: str | None, proposed: str | None
                 for t in tols]
     handles += [plt.Line2D([], [], color="gray", marker="o", mfc="none", ls="",
                            label="graded (open: ΔX inside, surface finer)")]
+    handles += [plt.Line2D([], [], color="gray", marker="o", mec="k", mew=1.6, ls="",
+                           label="rms error norm (black edge; others: max)")]
     handles += axes[1].get_legend_handles_labels()[0][-3:]
     fig.legend(handles=handles, fontsize=8, loc="lower center", ncol=6)
     fig.suptitle("rigid collapse: error against the space–time reference vs cost")
-    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    fig.tight_layout(rect=(0, 0.2, 1, 1))
     fig.savefig(png, dpi=110)
 
 
@@ -326,6 +332,7 @@ def main(argv=None) -> int:
                     help="three or more runs at one tolerance, ΔX decreasing")
     ap.add_argument("--default")
     ap.add_argument("--proposed")
+    ap.add_argument("--proposed-label", default="proposed", help="its label in the chart")
     ap.add_argument("--exclude", nargs="*", default=[], help="run names not measured")
     ap.add_argument("--variants", nargs="*", default=[],
                     help="runs of a charted setting under other round-off (another OpenBLAS kernel): "
@@ -395,7 +402,7 @@ def main(argv=None) -> int:
             for r in [ref] + rows:
                 w.writerow([r.get(k, "") for k in keys])
     if args.png:
-        chart(rows, args.png, args.default, args.proposed)
+        chart(rows, args.png, args.default, args.proposed, args.proposed_label)
     return 0
 
 
