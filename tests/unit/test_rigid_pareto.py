@@ -40,3 +40,45 @@ def test_pareto_front():
     #          cost, error
     points = [(10, 1.0), (5, 2.0), (20, 0.5), (12, 1.5), (5, 3.0), (40, 0.5)]
     assert rigid_pareto.pareto(points) == [1, 0, 2]
+
+
+@pytest.mark.parametrize("p", [0.7, 1.66, 2.5])
+def test_power_fit_over_four_and_five_levels(p):
+    """Q = Q0 + C h^p over 4 (unequal ratios) and 5 levels: the fit gives back Q0, C and p."""
+    for sizes in ((0.02, 0.014, 0.01, 0.007), (0.03, 0.02, 0.014, 0.01, 0.005)):
+        q0, c, p_fit = rigid_pareto.power_fit(sizes, [0.667 - 0.4 * h ** p for h in sizes])
+        assert p_fit == pytest.approx(p, rel=1e-4)
+        assert q0 == pytest.approx(0.667, abs=1e-9)
+        assert c == pytest.approx(-0.4, rel=1e-3)
+
+
+def test_power_fit_refuses_non_monotone_levels():
+    assert np.isnan(rigid_pareto.power_fit((0.02, 0.014, 0.01, 0.007), [1.0, 0.9, 0.95, 0.94])[2])
+    assert np.isnan(rigid_pareto.power_fit((0.02, 0.01), [1.0, 0.9])[2])   # two levels
+    # monotone but not converging: the step 1 → 0.7 cm larger than 2 → 1.4 cm (the measured
+    # deposit fronts 0.66796, 0.66732, 0.66698, 0.66481 m at 3e-5)
+    assert np.isnan(rigid_pareto.power_fit((0.02, 0.014, 0.01, 0.007),
+                                           [0.66796, 0.66732, 0.66698, 0.66481])[2])
+
+
+def test_richardson_levels_fits_every_scalar_of_four_runs():
+    p, q0 = 2.0, np.array([0.31, 0.38, 0.47, 0.56, 0.63, 0.66, 0.667, 0.667, 0.667])
+    c = np.linspace(-1.0, 1.0, len(q0)) + 0.05          # no zero coefficient
+    runs = [{"name": f"h{h}", "h": h, "front": 0.667 + 0.3 * h ** p, "height": 0.21 - 0.1 * h ** p,
+             "history": q0 + c * h ** p, "profile": q0 + c * h ** p}
+            for h in (0.02, 0.014, 0.01, 0.007)]
+    out = rigid_pareto.richardson_levels(runs, log=lambda *_: None)
+    assert out["fits"]["front"]["p"] == pytest.approx(p, rel=1e-4)
+    assert out["fits"]["front"]["finest_error"] == pytest.approx(0.3 * 0.007 ** p, rel=1e-3)
+    assert out["fits"]["x_f(0.1)"]["q0"] == pytest.approx(q0[0], abs=1e-9)
+    assert out["front"]["p"] == pytest.approx(p, rel=1e-6)          # the finest triple's order
+
+
+def test_done_when_against_the_default():
+    """Issue 51: each error no larger than the default's, the deposit front within 2.5 mm."""
+    default = {"e_hist": 1.2, "e_inf": 1.4, "e_l1": 1.3, "e_front": -1.0}
+    ok = {"e_hist": 1.2, "e_inf": 1.0, "e_l1": 0.9, "e_front": 2.4}
+    assert rigid_pareto.meets(ok, default)["all"]
+    for key, bad in (("e_hist", 1.21), ("e_inf", 1.5), ("e_l1", 1.31), ("e_front", -2.6)):
+        verdict = rigid_pareto.meets(ok | {key: bad}, default)
+        assert not verdict["all"] and not verdict[key]
