@@ -263,22 +263,56 @@ def interface_alignment(gradient, n):
     return ufl.conditional(ufl.gt(size, 1e-12), abs(ufl.dot(g, n('+'))) / (size + 1e-300), 0.0)
 
 
-def compression_flux(c, u, v, n, dS, coefficient, gradient=None):
+#: where the interface compression acts (``model.compression_direction``)
+COMPRESSION_DIRECTIONS = ("facet", "normal", "layer", "skip_layers")
+
+
+def layer_alignment(gradient, layer_normal, thin, n, direction: str = "layer"):
+    """The facet alignment a_f in and out of thin layers (``models.two_phase.layer_normal``:
+    ``layer_normal`` n_h the DG0 normal (−h', 1)/√(1 + h'²) of the layer's height function h,
+    ``thin`` the DG0 indicator of a layer thinner than two cells)::
+
+        layer        a = |n_h·n⁺|   on a facet of a thin layer's cell (either side),
+                     |ĝ·n⁺|         elsewhere (``interface_alignment``, ĝ from ∇c̄)
+        skip_layers  a = 0          on a facet of a thin layer's cell,  |ĝ·n⁺| elsewhere
+
+    ``layer``: across the layer the full compression, along it only its slope's share
+    |h'|/√(1 + h'²) (a tongue lying on the bed is not pulled back along itself);
+    ``skip_layers``: no compression at all in the layer (plain upwind there)."""
+    _one_of(direction, ("layer", "skip_layers"), "compression direction")
+    normal = interface_alignment(gradient, n)
+    in_layer = ufl.gt(ufl.avg(thin), 0.25)   # thin ∈ {0, 1}: avg ≥ ½ if either cell is
+    if direction == "skip_layers":
+        return ufl.conditional(in_layer, 0.0, normal)
+    return ufl.conditional(in_layer, abs(ufl.dot(ufl.avg(layer_normal), n('+'))), normal)
+
+
+def _alignment(gradient, n, layer):
+    """a_f: |ĝ·n⁺| (``interface_alignment``), or with ``layer`` = (n_h, thin, direction) the
+    thin layers' (``layer_alignment``)."""
+    if layer is None:
+        return interface_alignment(gradient, n)
+    normal, thin, direction = layer
+    return layer_alignment(gradient, normal, thin, n, direction)
+
+
+def compression_flux(c, u, v, n, dS, coefficient, gradient=None, layer=None):
     """∫ C |u·n| a φ (v⁺ − v⁻) dS, the interface compression: across a facet the flux from the
     emptier cell to the fuller one, φ = c⁺ (1 − c⁻) when c⁻ > c⁺, −c⁻ (1 − c⁺) when c⁺ > c⁻
     (a donor gives at most what it holds, a receiver takes at most its room). a = 1
     (``model.compression_direction: facet``: across every facet with a jump of c), or with
     ``gradient`` = ∇c̄ the facet's alignment with the interface normal (``normal``:
-    ``interface_alignment``; OpenFOAM's compression velocity along ∇c, not along a layer)."""
+    ``interface_alignment``; OpenFOAM's compression velocity along ∇c, not along a layer; with
+    ``layer`` = (n_h, thin, direction) in a thin layer ``layer_alignment``)."""
     un = abs(ufl.dot(u('+'), n('+')))
     if gradient is not None:
-        un = un * interface_alignment(gradient, n)
+        un = un * _alignment(gradient, n, layer)
     phi = ufl.conditional(ufl.gt(c('-'), c('+')), c('+') * (1.0 - c('-')),
                           -c('-') * (1.0 - c('+')))
     return coefficient * un * phi * (v('+') - v('-')) * dS
 
 
-def compression_weights(c, u, v, n, dS, gradient=None):
+def compression_weights(c, u, v, n, dS, gradient=None, layer=None):
     """∫ |u·n| a (c⁻ v⁺ − c⁺ v⁻) dS with c the DG0 trial function: the matrix whose entry of
     a facet's cells (K⁺, K⁻) is +∫_f |u·n| a ds and of (K⁻, K⁺) its negative — the weight of
     ``compression_flux`` on that facet (a as there) and, by its sign, the facet's orientation
@@ -286,7 +320,7 @@ def compression_weights(c, u, v, n, dS, gradient=None):
     reassembly. (A facet of weight 0 — a = 0 — carries no compression either way.)"""
     un = abs(ufl.dot(u('+'), n('+')))
     if gradient is not None:
-        un = un * interface_alignment(gradient, n)
+        un = un * _alignment(gradient, n, layer)
     return un * (c('-') * v('+') - c('+') * v('-')) * dS
 
 
