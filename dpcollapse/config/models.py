@@ -165,16 +165,22 @@ class TwoPhaseModel(_Section):
         "as normal, but in a layer thinner than two cells the normal of its height function "
         "(-h', 1), across the layer, so a tongue on the bed is not pulled back along itself; "
         "skip_layers: no compression in such a layer (docs/benchmarks/2026-12-07-two-phase-thin-front.md)")
+    compression_speed: Literal["facet", "full"] = _f(
+        "facet", "", "The interface compression's speed on a facet: facet |u.n_f| (interFoam's "
+        "|phi_f|/|S_f|: none across an interface the flow runs along) or full |u| (the compression "
+        "velocity C |u| n_i: also across the top of a layer sheared along the bed; "
+        "docs/benchmarks/2026-12-07-two-phase-thin-front.md)")
     thin_layer_cells: Number = _f(
         2.0, "", "compression_direction layer / skip_layers: a layer whose thickness (the column "
         "integral of c over a strip of the fine cell's width) is below this many fine cells is thin "
         "(2: the vertex average of c spans a cell on either side)", gt=0, le=20)
     open_top: Literal["traction_free", "hydrostatic"] = _f(
-        "traction_free", "", "The open top's traction: traction_free (sigma n = 0, p = 0 along the "
-        "top: on a tilted box, geometry.bed_angle > 0, the top is no isobar of the light fluid, "
-        "which then cannot rest and circulates over the deposit) or hydrostatic (sigma n = -p_a n, "
-        "p_a = rho_a f.(x - x_ref) the light fluid at rest, zero at the highest point: the same on "
-        "a level box; docs/benchmarks/2026-12-07-two-phase-thin-front.md)")
+        "hydrostatic", "", "The open top's traction: hydrostatic (the default since 2026-12-07: "
+        "sigma n = -p_a n, p_a = rho_a f.(x - x_ref) the light fluid at rest, zero at the highest "
+        "point; on a level box the same as traction_free) or traction_free (the default before: "
+        "sigma n = 0; on a tilted box, geometry.bed_angle > 0, the top is then no isobar of the "
+        "light fluid, which cannot rest and circulates over the deposit: the 12 deg shallow mass "
+        "crept at 8.7 mm/s at 3 s; docs/benchmarks/2026-12-07-two-phase-thin-front.md)")
     fraction_threshold: Number = _f(
         0.5, "", "A cell with c above this counts as granular (mass front, max speed)", gt=0, lt=1)
     grad_div: Number = _f(

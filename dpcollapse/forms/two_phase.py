@@ -296,7 +296,21 @@ def _alignment(gradient, n, layer):
     return layer_alignment(gradient, normal, thin, n, direction)
 
 
-def compression_flux(c, u, v, n, dS, coefficient, gradient=None, layer=None):
+#: the speed of the interface compression on a facet (``model.compression_speed``)
+COMPRESSION_SPEEDS = ("facet", "full")
+
+
+def compression_speed(u, n, kind: str = "facet"):
+    """The compression's speed on an interior facet: |u·n⁺| (``facet``: interFoam's
+    |φ_f|/|S_f|, the flow's own flux through the facet) or |u| (``full``: the compression
+    velocity C |u| n̂ written with the whole speed, so that it also acts across an interface
+    the flow runs along, the top of a layer sheared along the bed)."""
+    if _one_of(kind, COMPRESSION_SPEEDS, "compression speed") == "full":
+        return ufl.sqrt(ufl.dot(u('+'), u('+')))
+    return abs(ufl.dot(u('+'), n('+')))
+
+
+def compression_flux(c, u, v, n, dS, coefficient, gradient=None, layer=None, speed="facet"):
     """∫ C |u·n| a φ (v⁺ − v⁻) dS, the interface compression: across a facet the flux from the
     emptier cell to the fuller one, φ = c⁺ (1 − c⁻) when c⁻ > c⁺, −c⁻ (1 − c⁺) when c⁺ > c⁻
     (a donor gives at most what it holds, a receiver takes at most its room). a = 1
@@ -304,7 +318,7 @@ def compression_flux(c, u, v, n, dS, coefficient, gradient=None, layer=None):
     ``gradient`` = ∇c̄ the facet's alignment with the interface normal (``normal``:
     ``interface_alignment``; OpenFOAM's compression velocity along ∇c, not along a layer; with
     ``layer`` = (n_h, thin, direction) in a thin layer ``layer_alignment``)."""
-    un = abs(ufl.dot(u('+'), n('+')))
+    un = compression_speed(u, n, speed)
     if gradient is not None:
         un = un * _alignment(gradient, n, layer)
     phi = ufl.conditional(ufl.gt(c('-'), c('+')), c('+') * (1.0 - c('-')),
@@ -312,23 +326,24 @@ def compression_flux(c, u, v, n, dS, coefficient, gradient=None, layer=None):
     return coefficient * un * phi * (v('+') - v('-')) * dS
 
 
-def compression_weights(c, u, v, n, dS, gradient=None, layer=None):
+def compression_weights(c, u, v, n, dS, gradient=None, layer=None, speed="facet"):
     """∫ |u·n| a (c⁻ v⁺ − c⁺ v⁻) dS with c the DG0 trial function: the matrix whose entry of
     a facet's cells (K⁺, K⁻) is +∫_f |u·n| a ds and of (K⁻, K⁺) its negative — the weight of
     ``compression_flux`` on that facet (a as there) and, by its sign, the facet's orientation
     (which cell is '+'), so the flux can be evaluated cell pair by cell pair without
     reassembly. (A facet of weight 0 — a = 0 — carries no compression either way.)"""
-    un = abs(ufl.dot(u('+'), n('+')))
+    un = compression_speed(u, n, speed)
     if gradient is not None:
         un = un * _alignment(gradient, n, layer)
     return un * (c('-') * v('+') - c('+') * v('-')) * dS
 
 
-def outflow_rate(u, v, n, dS, ds, coefficient):
-    """∫_∂K ((u·n)⁺ + C |u·n|) v: the largest rate at which a cell can empty, times |K|
-    (sub-step Δt ≤ Co |K| / this keeps c ≥ 0)."""
-    rate_plus = _positive(ufl.dot(u('+'), n('+'))) + coefficient * abs(ufl.dot(u('+'), n('+')))
-    rate_minus = _positive(ufl.dot(u('-'), n('-'))) + coefficient * abs(ufl.dot(u('-'), n('-')))
+def outflow_rate(u, v, n, dS, ds, coefficient, speed="facet"):
+    """∫_∂K ((u·n)⁺ + C s) v, s = |u·n| (or |u|, ``compression_speed``): the largest rate at
+    which a cell can empty, times |K| (sub-step Δt ≤ Co |K| / this keeps c ≥ 0)."""
+    s = compression_speed(u, n, speed)
+    rate_plus = _positive(ufl.dot(u('+'), n('+'))) + coefficient * s
+    rate_minus = _positive(ufl.dot(u('-'), n('-'))) + coefficient * s
     return (rate_plus * v('+') + rate_minus * v('-')) * dS + _positive(ufl.dot(u, n)) * v * ds
 
 

@@ -80,8 +80,9 @@ class LightFluid:
     inertia: str = "mean"  # the time derivative's densities (forms.two_phase.previous_momentum)
     compression_direction: str = "normal"  # of the interface compression (forms.two_phase)
     strips: tuple[float, int] | None = None  # (width, count) of the box's strips (layer_normal)
-    open_top: str = "traction_free"  # the open top's traction: traction_free or hydrostatic
+    open_top: str = "hydrostatic"  # the open top's traction: hydrostatic or traction_free
     thin_layer_cells: float = 2.0  # a layer thinner than this many cells: layer_normal's
+    compression_speed: str = "facet"  # |u·n| or |u| (forms.two_phase.compression_speed)
 
 
 #: the snapshot field of cⁿ⁻¹ (``model.inertia: energy``, ``mean``)
@@ -130,7 +131,8 @@ class TwoPhaseFlow(RegularizedFlow):
         tracer = VolumeFraction(self.mesh, self.light.courant, self.light.compression, name=name,
                                 direction=self.light.compression_direction,
                                 coordinates=self.params.coordinates, strips=self.light.strips,
-                                thin_layer_cells=self.light.thin_layer_cells)
+                                thin_layer_cells=self.light.thin_layer_cells,
+                                speed=self.light.compression_speed)
         tracer.bind(ufl.split(self.solution)[0])
         self.tracers[name] = tracer
         return tracer
@@ -142,7 +144,8 @@ class TwoPhaseFlow(RegularizedFlow):
         coords = p.coordinates      # planar, or axisymmetric: the measures weighted by 2πr
         self.fraction = VolumeFraction(mesh, light.courant, light.compression,
                                        direction=light.compression_direction, coordinates=coords,
-                                       strips=light.strips, thin_layer_cells=light.thin_layer_cells)
+                                       strips=light.strips, thin_layer_cells=light.thin_layer_cells,
+                                       speed=light.compression_speed)
         c = self.fraction.c
         clamped = ufl.min_value(ufl.max_value(c, 0.0), 1.0)
         (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)

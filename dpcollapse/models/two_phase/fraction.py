@@ -59,7 +59,7 @@ class VolumeFraction:
 
     def __init__(self, mesh, courant: float, compression: float, name: str = "volume_fraction",
                  direction: str = "normal", coordinates=PLANAR, strips: tuple[float, int] | None = None,
-                 thin_layer_cells: float = 2.0):
+                 thin_layer_cells: float = 2.0, speed: str = "facet"):
         self.mesh, self.comm = mesh, mesh.comm
         #: planar (|K| the area, per unit depth) or axisymmetric (|K| = ∫_K 2πr dx)
         self.coordinates = coordinates
@@ -69,6 +69,7 @@ class VolumeFraction:
         #: (width, count) of the box's strips from x = 0: the thin layers' height function
         #: (``layer_normal``) of the directions "layer" and "skip_layers"
         self.strips, self.thin_layer_cells = strips, thin_layer_cells
+        self.speed = speed           # of the compression: |u·n| ("facet") or |u| ("full")
         self._layer = None
         self.S0 = S0 = compat.scalar_space(mesh, 0, "DG")
         self.c = fem.Function(S0, name=name)                 # cⁿ (accepted)
@@ -119,9 +120,10 @@ class VolumeFraction:
                 self._layer = LayerNormal(self.c, *self.strips, self.thin_layer_cells)
             layer = (self._layer.normal, self._layer.thin, self.direction)
         self._fluxes = StepFluxes(fem.form(fraction_flux(trial, u, v, n, dS, ds)),
-                                  fem.form(compression_weights(trial, u, v, n, dS, gradient, layer)),
+                                  fem.form(compression_weights(trial, u, v, n, dS, gradient, layer,
+                                                               self.speed)),
                                   self.S0.dofmap.index_map, C)
-        self._rate = fem.form(outflow_rate(u, v, n, dS, ds, C))
+        self._rate = fem.form(outflow_rate(u, v, n, dS, ds, C, self.speed))
         self._divergence = fem.form(self.coordinates.divergence(u) * v * self._measure(ufl.dx))
         self._boundary = fem.form(outflow_volume_rate(v, u, n, ds))
         self._b = compat.create_vector(self._rate)
