@@ -360,6 +360,9 @@ def test_skew_convection_puts_no_kinetic_energy_in():
     ("model.air_density=0", "model.air_density"),
     ("model.air_viscosity=-1", "model.air_viscosity"),
     ("model.courant=0.8", "model.courant"),
+    ("model.thin_layer_cells=0", "model.thin_layer_cells"),
+    ("model.open_top=closed", "model.open_top"),
+    ("model.compression_speed=fast", "model.compression_speed"),
 ])
 def test_bad_keys_are_one_line(override, key, capsys):
     refusal_message(CONFIG, override, key, capsys)
