@@ -202,6 +202,7 @@ LEGACY_DEFAULTS = {
     ("model", "inertia"): "velocity",             # default energy 2026-12-05 (noon), mean since
     #                                               2026-12-07: a config saved since 12-05 has the key
     ("model", "compression_direction"): "facet",  # default normal since 2026-12-05 (evening)
+    ("model", "open_top"): "traction_free",       # default hydrostatic since 2026-12-07
 }
 
 

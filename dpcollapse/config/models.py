@@ -155,13 +155,32 @@ class TwoPhaseModel(_Section):
     compression: Number = _f(
         1.0, "", "Interface compression: flux C |u.n| c_donor (1 - c_receiver) towards the fuller "
         "cell (0: plain upwind)", ge=0, le=2)
-    compression_direction: Literal["facet", "normal"] = _f(
+    compression_direction: Literal["facet", "normal", "layer", "skip_layers"] = _f(
         "normal", "", "Where the interface compression acts: normal (the default since 2026-12-05: "
         "each facet's flux weighted by |n_i . n_f|, n_i the interface normal from the gradient "
         "of c averaged to the vertices: across the interface, as OpenFOAM's compression velocity "
         "along grad c) or facet (the default before: across every facet with a jump of c, also "
         "along a thin layer, whose leading cells it pulls back into the fuller ones behind: "
-        "fronts 10-25 % short; docs/benchmarks/2026-12-05-two-phase-compression.md)")
+        "fronts 10-25 % short; docs/benchmarks/2026-12-05-two-phase-compression.md); layer: "
+        "as normal, but in a layer thinner than two cells the normal of its height function "
+        "(-h', 1), across the layer, so a tongue on the bed is not pulled back along itself; "
+        "skip_layers: no compression in such a layer (docs/benchmarks/2026-12-07-two-phase-thin-front.md)")
+    compression_speed: Literal["facet", "full"] = _f(
+        "facet", "", "The interface compression's speed on a facet: facet |u.n_f| (interFoam's "
+        "|phi_f|/|S_f|: none across an interface the flow runs along) or full |u| (the compression "
+        "velocity C |u| n_i: also across the top of a layer sheared along the bed; "
+        "docs/benchmarks/2026-12-07-two-phase-thin-front.md)")
+    thin_layer_cells: Number = _f(
+        2.0, "", "compression_direction layer / skip_layers: a layer whose thickness (the column "
+        "integral of c over a strip of the fine cell's width) is below this many fine cells is thin "
+        "(2: the vertex average of c spans a cell on either side)", gt=0, le=20)
+    open_top: Literal["traction_free", "hydrostatic"] = _f(
+        "hydrostatic", "", "The open top's traction: hydrostatic (the default since 2026-12-07: "
+        "sigma n = -p_a n, p_a = rho_a f.(x - x_ref) the light fluid at rest, zero at the highest "
+        "point; on a level box the same as traction_free) or traction_free (the default before: "
+        "sigma n = 0; on a tilted box, geometry.bed_angle > 0, the top is then no isobar of the "
+        "light fluid, which cannot rest and circulates over the deposit: the 12 deg shallow mass "
+        "crept at 8.7 mm/s at 3 s; docs/benchmarks/2026-12-07-two-phase-thin-front.md)")
     fraction_threshold: Number = _f(
         0.5, "", "A cell with c above this counts as granular (mass front, max speed)", gt=0, lt=1)
     grad_div: Number = _f(

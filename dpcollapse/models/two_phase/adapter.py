@@ -105,8 +105,16 @@ def make_flow(tagged: TaggedMesh, cfg, vessel: Container) -> TwoPhaseFlow:
     light = LightFluid(model.air_density, model.air_viscosity, model.courant, model.compression,
                        model.grad_div, model.viscosity_average, model.yield_weighting,
                        model.grain_pressure, model.cut_cell_pressure, model.inertia,
-                       model.compression_direction)
+                       model.compression_direction, strips(cfg, vessel), model.open_top,
+                       model.thin_layer_cells, model.compression_speed)
     return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
+
+
+def strips(cfg, vessel: Container) -> tuple[float, int]:
+    """(width, count): the columns of h(x) = ∫ c dy, the vessel's length in strips of the fine
+    cell size (the measures' and the thin layers' height function, ``layer_normal``)."""
+    count = max(2, round(vessel.length / cell_sizes(cfg)[0]))
+    return vessel.length / count, count
 
 
 def _triangle_areas(triangles: np.ndarray) -> np.ndarray:
@@ -166,8 +174,7 @@ class TwoPhaseDiscretization(DiscretizationDefaults):
             self.history_plot = "discharge"   # Q, −dm/dt and the fill height over time
         # columns for h(x) = ∫ c dy: strips of the structured mesh's width along x (on the
         # adaptive mesh: of min_cell)
-        self.nx = max(2, round(vessel.length / fine))
-        self.dx_bin = vessel.length / self.nx
+        self.dx_bin, self.nx = strips(cfg, vessel)
         n = compat.num_owned_cells(mesh)
         tri = owned_triangles(mesh)
         self._cells = compat.cell_dofs(self.fraction.S0)[:n, 0]

@@ -78,7 +78,11 @@ class LightFluid:
     grain_pressure: str = "total"  # the p of κ(p), μ(I) and the bed friction (forms.two_phase)
     cut_cell_pressure: str = "pointwise"  # that p in a cut cell: pointwise or at its centroid
     inertia: str = "mean"  # the time derivative's densities (forms.two_phase.previous_momentum)
-    compression_direction: str = "normal"  # of the interface compression: normal or facet
+    compression_direction: str = "normal"  # of the interface compression (forms.two_phase)
+    strips: tuple[float, int] | None = None  # (width, count) of the box's strips (layer_normal)
+    open_top: str = "hydrostatic"  # the open top's traction: hydrostatic or traction_free
+    thin_layer_cells: float = 2.0  # a layer thinner than this many cells: layer_normal's
+    compression_speed: str = "facet"  # |u·n| or |u| (forms.two_phase.compression_speed)
 
 
 #: the snapshot field of cⁿ⁻¹ (``model.inertia: energy``, ``mean``)
@@ -126,7 +130,9 @@ class TwoPhaseFlow(RegularizedFlow):
         """A DG0 fraction named ``name`` advected with c (same scheme, same sub-steps)."""
         tracer = VolumeFraction(self.mesh, self.light.courant, self.light.compression, name=name,
                                 direction=self.light.compression_direction,
-                                coordinates=self.params.coordinates)
+                                coordinates=self.params.coordinates, strips=self.light.strips,
+                                thin_layer_cells=self.light.thin_layer_cells,
+                                speed=self.light.compression_speed)
         tracer.bind(ufl.split(self.solution)[0])
         self.tracers[name] = tracer
         return tracer
@@ -137,7 +143,9 @@ class TwoPhaseFlow(RegularizedFlow):
         self.surface_gamma = None   # no surface tension: the surface is not a boundary here
         coords = p.coordinates      # planar, or axisymmetric: the measures weighted by 2πr
         self.fraction = VolumeFraction(mesh, light.courant, light.compression,
-                                       direction=light.compression_direction, coordinates=coords)
+                                       direction=light.compression_direction, coordinates=coords,
+                                       strips=light.strips, thin_layer_cells=light.thin_layer_cells,
+                                       speed=light.compression_speed)
         c = self.fraction.c
         clamped = ufl.min_value(ufl.max_value(c, 0.0), 1.0)
         (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)
@@ -181,6 +189,14 @@ class TwoPhaseFlow(RegularizedFlow):
             if self._has_tag(b.tag):   # σ n = −p_a n with the ambient p_a = ρ_a f·(x − x_ref)
                 self.rhs_terms[f"{b.name}_ambient"] = ambient_traction(
                     light.density, f, b.reference, v, n, ds(b.tag), mesh)
+        if light.open_top == "hydrostatic":
+            # the open top borders the light fluid at rest: σ n = −p_a n, p_a zero at the
+            # highest point (on a tilted box the top is no isobar: with σ n = 0 there the
+            # light fluid cannot rest and circulates over the deposit, model.open_top)
+            for b in p.of_kind(BoundaryKind.FREE_SURFACE):
+                if self._has_tag(b.tag):
+                    self.rhs_terms[f"{b.name}_ambient"] = ambient_traction(
+                        light.density, f, self.highest, v, n, ds(b.tag), mesh)
         if light.grad_div > 0:
             # the cellwise divergence the fluxes of c see (c > 1 in converging cells, creep)
             self.terms["grad_div"] = grad_div(light.grad_div, law.secant_viscosity(u_k, p_k, eps),

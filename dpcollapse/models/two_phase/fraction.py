@@ -8,7 +8,9 @@ advected with the sub-step count of c.
   that (Δt/N) max_K ∫_∂K ((u·n)⁺ + C|u·n|) ds / |K| ≤ the Courant number. The fluxes' matrices
   are assembled once per step and each sub-step is a sparse product (``fluxes``); with
   ``direction`` "normal" the compression's facet weights carry |n̂·n|, n̂ from the gradient of
-  c averaged to the vertices at the start of the step (``_VertexAverage``). Under MPI
+  c averaged to the vertices at the start of the step (``_VertexAverage``); with "layer"
+  ("skip_layers") a layer thinner than two cells takes the normal of its height function
+  (no compression) instead (``layer_normal``, on the box's ``strips``). Under MPI
   the ghost values of c are updated by a forward scatter after every sub-step.
 * What leaves: the upwind flux takes (u·n)⁺ c out through every side of the box, so
   ∫ c dx + ``outflow_volume`` (the watched outflow sides, a silo's orifice) +
@@ -41,6 +43,7 @@ from dpcollapse.forms.two_phase import (
 )
 from dpcollapse.geometry.regions import cell_triangles
 from dpcollapse.models.two_phase.fluxes import StepFluxes
+from dpcollapse.models.two_phase.layer_normal import LayerNormal
 from dpcollapse.models.two_phase.remap import remap
 from dpcollapse.rheology.coordinates import PLANAR
 
@@ -55,13 +58,19 @@ class VolumeFraction:
     mesh; the flow's forms need c before its velocity exists)."""
 
     def __init__(self, mesh, courant: float, compression: float, name: str = "volume_fraction",
-                 direction: str = "normal", coordinates=PLANAR):
+                 direction: str = "normal", coordinates=PLANAR, strips: tuple[float, int] | None = None,
+                 thin_layer_cells: float = 2.0, speed: str = "facet"):
         self.mesh, self.comm = mesh, mesh.comm
         #: planar (|K| the area, per unit depth) or axisymmetric (|K| = ∫_K 2πr dx)
         self.coordinates = coordinates
         self.courant, self.compression = courant, compression
         self.direction = direction   # of the compression: "facet" or "normal" (to the interface)
         self._vertex = None          # c̄: c averaged to the vertices (P1), for "normal"
+        #: (width, count) of the box's strips from x = 0: the thin layers' height function
+        #: (``layer_normal``) of the directions "layer" and "skip_layers"
+        self.strips, self.thin_layer_cells = strips, thin_layer_cells
+        self.speed = speed           # of the compression: |u·n| ("facet") or |u| ("full")
+        self._layer = None
         self.S0 = S0 = compat.scalar_space(mesh, 0, "DG")
         self.c = fem.Function(S0, name=name)                 # cⁿ (accepted)
         self.previous = fem.Function(S0)                     # cⁿ⁻¹ (``forget_history``)
@@ -99,15 +108,22 @@ class VolumeFraction:
         v, trial = ufl.TestFunction(self.S0), ufl.TrialFunction(self.S0)
         n = ufl.FacetNormal(mesh)
         dS, ds = self._measure(ufl.dS), self._measure(ufl.ds)
-        gradient = None
-        if self.direction == "normal" and C > 0:
+        gradient = layer = None
+        if self.direction != "facet" and C > 0:
             if self._vertex is None:
                 self._vertex = _VertexAverage(self.c)
             gradient = ufl.grad(self._vertex.function)
+        if self.direction in ("layer", "skip_layers") and C > 0:
+            if self.strips is None:
+                raise ValueError(f"compression direction {self.direction!r} needs the box's strips")
+            if self._layer is None:
+                self._layer = LayerNormal(self.c, *self.strips, self.thin_layer_cells)
+            layer = (self._layer.normal, self._layer.thin, self.direction)
         self._fluxes = StepFluxes(fem.form(fraction_flux(trial, u, v, n, dS, ds)),
-                                  fem.form(compression_weights(trial, u, v, n, dS, gradient)),
+                                  fem.form(compression_weights(trial, u, v, n, dS, gradient, layer,
+                                                               self.speed)),
                                   self.S0.dofmap.index_map, C)
-        self._rate = fem.form(outflow_rate(u, v, n, dS, ds, C))
+        self._rate = fem.form(outflow_rate(u, v, n, dS, ds, C, self.speed))
         self._divergence = fem.form(self.coordinates.divergence(u) * v * self._measure(ufl.dx))
         self._boundary = fem.form(outflow_volume_rate(v, u, n, ds))
         self._b = compat.create_vector(self._rate)
@@ -183,6 +199,8 @@ class VolumeFraction:
         self.work.x.array[:] = self.c.x.array
         if self._vertex is not None:
             self._vertex.update()       # the interface normal of cⁿ, fixed over the sub-steps
+        if self._layer is not None:
+            self._layer.update()        # the thin layers' normals of cⁿ, likewise
         self._fluxes.assemble()
         weights = None if self._outflow is None else self._assemble(self._outflow).copy()
         others = self._assemble(self._boundary).copy()     # every side, less the outflow's
