@@ -5,7 +5,8 @@ depth-averaged rungs (``2d``); one JSON line of the results.
 
     python studies/benchmarks/two_phase/shallow_resolution.py tp shallow_flat_eps0.1 0.003 WORK
     python studies/benchmarks/two_phase/shallow_resolution.py 2d shallow_flat_eps0.1 0.003 WORK
-    python studies/benchmarks/two_phase/shallow_resolution.py tp shallow_slope12_eps0.1 0.003 WORK model.open_top=hydrostatic
+    python studies/benchmarks/two_phase/shallow_resolution.py tp shallow_slope12_eps0.1 0.003 WORK \
+        model.open_top=hydrostatic
 
 Further KEY=VALUE arguments are applied last to the two-phase rung's config (a knob, as
 ``columns_cause.py``'s).
