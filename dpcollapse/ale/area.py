@@ -51,7 +51,6 @@ from petsc4py import PETSc
 from dpcollapse import compat
 from dpcollapse.ale.quality import signed_areas
 
-
 #: Secant refinements of the root s after the quadratic's (axisymmetric: V(s) is cubic).
 SECANT_STEPS = 3
 

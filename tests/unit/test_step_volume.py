@@ -17,7 +17,6 @@ from mpi4py import MPI
 
 from dpcollapse.ale.motion import MeshMotion
 from dpcollapse.config import load_config
-from dpcollapse.config.messages import ConfigError
 from dpcollapse.models.stokes.discretization import make_flow
 from dpcollapse.scenes.registry import build_mesh
 from tests.helpers import ROOT

@@ -138,8 +138,8 @@ def main(argv=None) -> None:
         for key in ("thickness_runout", "mass_runout"):
             if len(rest) >= 2:
                 c, n, se = power_fit([r["a"] for r in rest], [r[key] for r in rest])
-                print(f"{bed}, h = {h:g} m, {key}: {c:.3f} a^{n:.3f} ± {se:.3f} "
-                      f"(a = {', '.join(f'{r['a']:g}' for r in rest)})")
+                fitted = ", ".join(format(r["a"], "g") for r in rest)
+                print(f"{bed}, h = {h:g} m, {key}: {c:.3f} a^{n:.3f} ± {se:.3f} (a = {fitted})")
     by_a = {}
     for r in rows:
         by_a.setdefault((r["bed"], r["a"]), []).append(r)
