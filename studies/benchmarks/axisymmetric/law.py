@@ -20,7 +20,7 @@ freedom), and the spread between the two resolutions' exponents beside it.
 
 The laboratory's fits, as quoted (the primary papers are closed access; see the report):
 Lube et al. 2004, 1.24 a for a ≲ 1.7 and 1.6 a^{1/2} above; Lajeunesse et al. 2004,
-1.0 a for a ≲ 0.74 and 2.0 a^{1/2} for the tall columns. The planar law beside them: the
+1.0 a and 2.0 a^{1/2}, split at a = 3 (the regimes of seed 004). The planar law beside them: the
 two-phase model's no-slip columns (``--planar``, thickness front at L0/32).
 """
 
@@ -46,10 +46,10 @@ def lube(a):
 
 
 def lajeunesse(a):
-    """Lajeunesse et al. (2004), cylinders: 1.0 a (a ≤ 0.74), 2.0 a^{1/2} for the tall ones
-    (as quoted; between the two the quotation gives no law: NaN)."""
+    """Lajeunesse et al. (2004), cylinders: 1.0 a and 2.0 a^{1/2} (the constants as quoted),
+    the regimes split at a = 3 (seed 004: ∝ a for a ≤ 3, ∝ a^{1/2} above)."""
     a = np.asarray(a, dtype=float)
-    return np.where(a <= 0.74, a, np.where(a >= 3.0, 2.0 * np.sqrt(a), np.nan))
+    return np.where(a <= 3.0, a, 2.0 * np.sqrt(a))
 
 
 def run_row(run: Path) -> dict:
