@@ -53,3 +53,22 @@ def test_a_run_directory_is_read_into_its_deposit(tmp_path):
     assert row["height"] == pytest.approx(0.55)
     assert row["volume_drift"] == pytest.approx((0.0062831790 - 0.0062831853) / 0.0062831853, rel=1e-9)
     assert row["cpu"] == pytest.approx(13.0) and row["surgeries"] == 2
+
+
+def test_a_run_not_at_rest_is_read_where_it_settled(tmp_path):
+    """A deposit still creeping at the end (status end_time) is read at its first row after
+    the kinetic energy's peak below 1e-3 of it."""
+    run = tmp_path / "axi_a0.5_h0.01"
+    run.mkdir()
+    (run / "config.yaml").write_text(
+        "geometry: {height: 0.05, base_length: 0.1, mesh_size: 0.01}\nmaterial: {rheology: mu_i}\n")
+    (run / "run.json").write_text(json.dumps({"status": "end_time"}))
+    (run / "diagnostics.csv").write_text(
+        "step,t,front,thick_front,max_height,area,remeshes,kinetic_energy\n"
+        "0,0.0,0.1,0.1,0.05,1.0,0,0.0\n"
+        "100,0.1,0.15,0.14,0.045,1.0,9,2.0\n"
+        "400,0.4,0.17,0.16,0.0435,1.0,29,1.9e-3\n"
+        "3000,3.0,0.158,0.151,0.046,1.0,153,3.0e-3\n")
+    row = law.run_row(run)
+    assert row["state"] == "settled" and row["t"] == pytest.approx(0.4)
+    assert row["thickness_runout"] == pytest.approx(0.6)

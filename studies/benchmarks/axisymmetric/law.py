@@ -9,10 +9,11 @@ Usage::
 
 Each RUN_DIR is a ``dpcollapse run configs/column_axi_a*.yaml --set geometry.mesh_size=h
 --out RUN_DIR``; ``RUN_DIR.time`` (``/usr/bin/time -f "%U %S %e"``), if present, gives the
-CPU seconds. From the last row of diagnostics.csv and run.json: (r∞ − r0)/r0 at the
-project's front (``fronts.py``: the thickness front at max(3d, ΔX/4), column
-``thick_front``) and at the mass front (the furthest node, ``front``), H_f/r0
-(``max_height``), the volume drift (``area`` is the body's volume 2π∫ r dA), the status.
+CPU seconds. From the last row of diagnostics.csv (a run that is not at rest at its end:
+the first row after the kinetic energy's peak below 1e-3 of it, state "settled") and
+run.json: (r∞ − r0)/r0 at the project's front (``fronts.py``: the thickness front at
+max(3d, ΔX/4), column ``thick_front``) and at the mass front (the furthest node, ``front``),
+H_f/r0 (``max_height``), the volume drift (``area`` is the body's volume 2π∫ r dA), the status.
 
 The exponent above a ≈ 2: least squares of ln((r∞ − r0)/r0) on ln a over the runs at rest
 with a ≥ 2, per resolution; its standard error from the residuals (n − 2 degrees of
@@ -37,6 +38,9 @@ import yaml
 
 #: a from which the power law a^n is fitted ("above a ≈ 2")
 FIT_FROM = 2.0
+#: a run not at rest at its end is read at its first row after the kinetic energy's peak
+#: with KE below this fraction of the peak ("settled", as runout.py; state "settled")
+SETTLED = 1e-3
 
 
 def lube(a):
@@ -59,7 +63,15 @@ def run_row(run: Path) -> dict:
     r0, h0 = g["base_length"], g["height"]
     info = json.loads((run / "run.json").read_text()) if (run / "run.json").exists() else {}
     rows = list(csv.DictReader((run / "diagnostics.csv").open()))
-    last, first = rows[-1], rows[0]
+    first = rows[0]
+    status = info.get("status", "unknown")
+    last, state = rows[-1], "final"
+    if status != "at_rest":     # still creeping at the end: the first settled row instead
+        ke = [float(r["kinetic_energy"]) for r in rows]
+        peak = max(range(len(ke)), key=ke.__getitem__)
+        settled = next((r for r, k in zip(rows[peak:], ke[peak:]) if k < SETTLED * ke[peak]), None)
+        if settled is not None:
+            last, state = settled, "settled"
     grav = cfg["material"].get("gravity", 9.81)
     time_file = run.parent / (run.name + ".time")
     cpu = math.nan
@@ -75,7 +87,8 @@ def run_row(run: Path) -> dict:
         "rheology": cfg["material"]["rheology"],
         "a": h0 / r0,
         "mesh_size": g["mesh_size"],
-        "status": info.get("status", "unknown"),
+        "status": status,
+        "state": state,
         "t": float(last["t"]),
         "scaled_time": float(last["t"]) * math.sqrt(grav / h0),
         "thickness_runout": (float(last["thick_front"]) - r0) / r0,
@@ -134,7 +147,8 @@ def main(argv=None) -> None:
         groups.setdefault((r["bed"], r["mesh_size"]), []).append(r)
     print()
     for (bed, h), rs in groups.items():
-        rest = [r for r in rs if r["status"] == "at_rest" and r["a"] >= FIT_FROM]
+        rest = [r for r in rs if (r["status"] == "at_rest" or r["state"] == "settled")
+                and r["a"] >= FIT_FROM]
         for key in ("thickness_runout", "mass_runout"):
             if len(rest) >= 2:
                 c, n, se = power_fit([r["a"] for r in rest], [r[key] for r in rest])
@@ -168,7 +182,7 @@ def plot(rows, png: Path, planar: Path | None) -> None:
             label="Lajeunesse et al. 2004: a, 2.0a$^{1/2}$ (cylinders)")
     markers = {}
     for r in rows:
-        if r["status"] != "at_rest":
+        if r["status"] != "at_rest" and r["state"] != "settled":
             continue
         key = (r["bed"], r["mesh_size"])
         style = markers.setdefault(key, "osD^v"[len(markers) % 5])
