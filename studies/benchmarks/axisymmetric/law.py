@@ -141,30 +141,32 @@ def main(argv=None) -> None:
             w.writeheader()
             for r in rows:
                 w.writerow({k: (f"{v:.4g}" if isinstance(v, float) else v) for k, v in r.items()})
-    # the two resolutions side by side, and the exponent above a ≈ 2
-    groups = {}
+    # the two resolutions side by side: per (law, bed, a) the coarser and the finer run
+    by_a = {}
     for r in rows:
-        groups.setdefault((r["bed"], r["mesh_size"]), []).append(r)
+        by_a.setdefault((r["rheology"], r["bed"], r["a"]), []).append(r)
+    levels = {}
     print()
-    for (bed, h), rs in groups.items():
+    for (law, bed, a), rs in sorted(by_a.items()):
+        rs = sorted(rs, key=lambda r: -r["mesh_size"])
+        for name, r in zip(("coarse", "fine") if len(rs) == 2 else ("coarse",), rs):
+            levels.setdefault((law, bed, name), []).append(r)
+        if len(rs) == 2:
+            c, f = rs
+            for key in ("thickness_runout", "height", "mass_runout"):
+                print(f"{law}, {bed}, a = {a:g}: {key} {c[key]:.3f} (h = {c['mesh_size']:g}) vs "
+                      f"{f[key]:.3f} (h = {f['mesh_size']:g}): "
+                      f"{100 * (c[key] - f[key]) / f[key]:+.1f} %")
+    # the exponent above a ≈ 2, per level (coarse: the coarser run of each a; fine: the finer)
+    print()
+    for (law, bed, name), rs in levels.items():
         rest = [r for r in rs if (r["status"] == "at_rest" or r["state"] == "settled")
                 and r["a"] >= FIT_FROM]
         for key in ("thickness_runout", "mass_runout"):
             if len(rest) >= 2:
                 c, n, se = power_fit([r["a"] for r in rest], [r[key] for r in rest])
-                fitted = ", ".join(format(r["a"], "g") for r in rest)
-                print(f"{bed}, h = {h:g} m, {key}: {c:.3f} a^{n:.3f} ± {se:.3f} (a = {fitted})")
-    by_a = {}
-    for r in rows:
-        by_a.setdefault((r["bed"], r["a"]), []).append(r)
-    print()
-    for (bed, a), rs in sorted(by_a.items()):
-        if len(rs) == 2:
-            c, f = sorted(rs, key=lambda r: -r["mesh_size"])
-            for key in ("thickness_runout", "height", "mass_runout"):
-                print(f"{bed}, a = {a:g}: {key} {c[key]:.3f} (h = {c['mesh_size']:g}) vs "
-                      f"{f[key]:.3f} (h = {f['mesh_size']:g}): "
-                      f"{100 * (c[key] - f[key]) / f[key]:+.1f} %")
+                fitted = ", ".join(f"{r['a']:g} ({1e3 * r['mesh_size']:g} mm)" for r in rest)
+                print(f"{law}, {bed}, {name}, {key}: {c:.3f} a^{n:.3f} ± {se:.3f} (a = {fitted})")
     if args.png:
         plot(rows, args.png, args.planar)
 
