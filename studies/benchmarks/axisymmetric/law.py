@@ -182,15 +182,19 @@ def plot(rows, png: Path, planar: Path | None) -> None:
     ax.plot(aa, lube(aa), "k-", lw=1, label="Lube et al. 2004: 1.24a, 1.6a$^{1/2}$ (cylinders)")
     ax.plot(aa, lajeunesse(aa), "k--", lw=1,
             label="Lajeunesse et al. 2004: a, 2.0a$^{1/2}$ (cylinders)")
-    markers = {}
     for r in rows:
         if r["status"] != "at_rest" and r["state"] != "settled":
             continue
-        key = (r["bed"], r["mesh_size"])
-        style = markers.setdefault(key, "osD^v"[len(markers) % 5])
-        ax.plot(r["a"], r["thickness_runout"], style, mfc="none" if r["mesh_size"] > 0.006 else None,
-                color="C0" if r["bed"] == "no_slip" else "C2",
-                label=f"cylinder, {r['bed'].replace('_', ' ')} bed, h = {1e3 * r['mesh_size']:g} mm")
+        law = "μ(I)" if r["rheology"] == "mu_i" else "Drucker–Prager"
+        color = {"mu_i": "C0" if r["bed"] == "no_slip" else "C2"}.get(r["rheology"], "C7")
+        marker = "o" if r["bed"] == "no_slip" else "^"
+        if r["rheology"] != "mu_i":
+            marker = "D"
+        fine = r["mesh_size"] < 0.0099
+        ax.plot(r["a"], r["thickness_runout"], marker, color=color, mfc=color if fine else "none",
+                ms=4.5 if fine else 8,
+                label=f"cylinder, {law}, {r['bed'].replace('_', ' ')} bed, "
+                      f"{'fine (5 / 7.5 mm)' if fine else 'h = 1 cm'}")
     if planar is not None and planar.exists():
         a, y = planar_law(planar)
         ax.plot(a, y, "x:", color="C3", label="planar column (two-phase, no slip, L0/32)")
