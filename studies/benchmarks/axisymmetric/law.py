@@ -102,6 +102,11 @@ def run_row(run: Path) -> dict:
     }
 
 
+def usable(row: dict) -> bool:
+    """A deposit to compare: at rest, or read where it settled (not a failed run's last row)."""
+    return row["status"] == "at_rest" or row["state"] == "settled"
+
+
 def power_fit(a, y) -> tuple[float, float, float]:
     """(prefactor, exponent, standard error of the exponent) of y = c a^n by least squares
     in logs; the error NaN for two points."""
@@ -144,7 +149,8 @@ def main(argv=None) -> None:
     # the two resolutions side by side: per (law, bed, a) the coarser and the finer run
     by_a = {}
     for r in rows:
-        by_a.setdefault((r["rheology"], r["bed"], r["a"]), []).append(r)
+        if usable(r):     # a failed run (exit 3, 4) is listed, not compared
+            by_a.setdefault((r["rheology"], r["bed"], r["a"]), []).append(r)
     levels = {}
     print()
     for (law, bed, a), rs in sorted(by_a.items()):
@@ -160,8 +166,7 @@ def main(argv=None) -> None:
     # the exponent above a ≈ 2, per level (coarse: the coarser run of each a; fine: the finer)
     print()
     for (law, bed, name), rs in levels.items():
-        rest = [r for r in rs if (r["status"] == "at_rest" or r["state"] == "settled")
-                and r["a"] >= FIT_FROM]
+        rest = [r for r in rs if r["a"] >= FIT_FROM]
         for key in ("thickness_runout", "mass_runout"):
             if len(rest) >= 2:
                 c, n, se = power_fit([r["a"] for r in rest], [r[key] for r in rest])
@@ -182,9 +187,7 @@ def plot(rows, png: Path, planar: Path | None) -> None:
     ax.plot(aa, lube(aa), "k-", lw=1, label="Lube et al. 2004: 1.24a, 1.6a$^{1/2}$ (cylinders)")
     ax.plot(aa, lajeunesse(aa), "k--", lw=1,
             label="Lajeunesse et al. 2004: a, 2.0a$^{1/2}$ (cylinders)")
-    for r in rows:
-        if r["status"] != "at_rest" and r["state"] != "settled":
-            continue
+    for r in filter(usable, rows):
         law = "μ(I)" if r["rheology"] == "mu_i" else "Drucker–Prager"
         color = {"mu_i": "C0" if r["bed"] == "no_slip" else "C2"}.get(r["rheology"], "C7")
         marker = "o" if r["bed"] == "no_slip" else "^"
