@@ -19,6 +19,22 @@ its nodes, so three evaluations give A(s) exactly). Nodes on a solid side (bed, 
 free-surface nodes on the bed y = 0 (a landed nose) are not moved. s is O(Δt² |∇w|² A/|Γ_f|)
 (of order 1e-7 m on that column): the surface moves by far less than a cell, in its normal
 direction, and the step's first-order motion is unchanged.
+
+Axisymmetric (``geometry.symmetry: axisymmetric``, x = r ≥ 0): the measure kept is the
+body's volume V = 2π ∫ r dA instead of the area. The same move changes it by
+
+    V(x + Δt w) − V(x) = Δt ∫ div_rz(w) 2πr dA + O(Δt²),   div_rz w = ∂_r w_r + w_r/r + ∂_z w_z
+
+(a cell's volume 2π |T| r̄_T, r̄_T the mean radius of its nodes, is cubic in its nodes: the
+remainder is Δt² and Δt³ terms, again non-zero for an incompressible w: the extensional
+w = ε(r, −2z) scales V by (1 + εΔt)²(1 − 2εΔt)). The first variation of V carries the
+weight r, δV = ∮ 2πr n·δx ds, so the directions are
+
+    N_i = ∫_{Γ_f} 2πr φ_i n ds,
+
+and s solves V(s) = V_before: the root nearest 0 of the quadratic through V(0), V(±s₁)
+(s₁ the linear estimate; the cubic term leaves O(s₁³) ≈ 1e-21 m³ at s₁ ~ 1e-7 m), refined
+by secant steps to round-off. Nodes on the axis r = 0 are on a solid side and stay.
 """
 
 from __future__ import annotations
@@ -35,19 +51,31 @@ from petsc4py import PETSc
 from dpcollapse import compat
 from dpcollapse.ale.quality import signed_areas
 
+#: Secant refinements of the root s after the quadratic's (axisymmetric: V(s) is cubic).
+SECANT_STEPS = 3
+
 
 class AreaKeeper:
     """Put back the area change of a move of ``mesh`` (free surface: facets tagged in
-    ``surface_tags``; nodes of the other tagged facets stay)."""
+    ``surface_tags``; nodes of the other tagged facets stay). ``axisymmetric``: the measure
+    kept is the volume 2π∫ r dA of the body of revolution about x = 0 [m³]."""
+
+    #: the measure kept: the area (planar) or the volume 2π∫ r dA (axisymmetric)
+    axisymmetric = False
 
     def __init__(self, mesh, facet_tags, surface_tags, space, node_dof: np.ndarray,
-                 cells: np.ndarray):
+                 cells: np.ndarray, axisymmetric: bool = False):
         self.mesh, self.space = mesh, space
+        self.axisymmetric = axisymmetric
         self._node_dof, self._cells = node_dof, cells
         ds = ufl.Measure("ds", domain=mesh, subdomain_data=facet_tags)
         ds_surface = sum((ds(t) for t in surface_tags[1:]), ds(surface_tags[0]))
         n = ufl.FacetNormal(mesh)
-        self._variation = fem.form(ufl.dot(n, ufl.TestFunction(space)) * ds_surface)
+        # the first variation of the measure: δA = ∮ n·δx ds, δV = ∮ 2πr n·δx ds
+        variation = ufl.dot(n, ufl.TestFunction(space))
+        if axisymmetric:
+            variation = 2 * math.pi * ufl.SpatialCoordinate(mesh)[0] * variation
+        self._variation = fem.form(variation * ds_surface)
         self._N = fem.Function(space)
         fixed = facet_tags.indices[~np.isin(facet_tags.values, surface_tags)]
         self._fixed = np.unique(compat.entities_to_geometry(mesh, 1, fixed).ravel())
@@ -56,10 +84,15 @@ class AreaKeeper:
         self._sign = np.sign(signed_areas(mesh.geometry.x[:, :2][self._owned]))
 
     def area(self, x: np.ndarray | None = None) -> float:
-        """Area of the mesh (global), at node coordinates ``x`` (default: the current)."""
+        """Area of the mesh [m²] (global), at node coordinates ``x`` (default: the current);
+        axisymmetric: the volume Σ_T 2π |T| r̄_T [m³] (r̄_T the mean radius of T's nodes:
+        Pappus, exact for a straight-sided cell)."""
         x = self.mesh.geometry.x if x is None else x
-        local = 0.5 * float(np.sum(self._sign * signed_areas(x[:, :2][self._owned])))
-        return self.mesh.comm.allreduce(local, op=MPI.SUM)
+        cells = x[:, :2][self._owned]
+        areas = 0.5 * self._sign * signed_areas(cells)
+        if self.axisymmetric:
+            areas = 2 * math.pi * areas * cells[:, :, 0].mean(axis=1)
+        return self.mesh.comm.allreduce(float(np.sum(areas)), op=MPI.SUM)
 
     def directions(self) -> np.ndarray:
         """N_i at every geometry node (num_nodes, 2): zero off the free surface, on solid
@@ -98,6 +131,13 @@ class AreaKeeper:
         b = (plus - minus) / (2 * scale)          # A(s) = a0 + b s + c s²
         c = (plus + minus - 2 * a0) / (2 * scale * scale)
         s = _root_nearest_zero(c, b, a0 - target, scale)
+        if self.axisymmetric:      # V(s) is cubic: secant steps from the quadratic's root
+            s_prev, v_prev = 0.0, a0
+            for _ in range(SECANT_STEPS):
+                v = area_at(s)
+                if v == target or v == v_prev:
+                    break
+                s, s_prev, v_prev = s - (v - target) * (s - s_prev) / (v - v_prev), s, v
         x[:, :2] = start + s * N
         return missing
 

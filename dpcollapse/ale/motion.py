@@ -71,9 +71,11 @@ class MeshMotion:
         on = bool(np.all(xb[:, 1] == self.bed_height(xb[:, 0])))
         self._on_profile = mesh.comm.allreduce(on, op=MPI.LAND) and mesh.comm.allreduce(
             len(self._bed_nodes), op=MPI.SUM) > 0
-        # numerics.step_conserve_area: each move's area change put back (``ale.area``)
-        self.area_keeper = AreaKeeper(mesh, ft, surface, Vw, self._node_dof, gdm) \
-            if conserve_area else None
+        # numerics.step_conserve_area: each move's area change put back (``ale.area``);
+        # axisymmetric: the body's volume 2π∫ r dA
+        axisymmetric = getattr(flow.params.coordinates, "name", "planar") == "axisymmetric"
+        self.area_keeper = AreaKeeper(mesh, ft, surface, Vw, self._node_dof, gdm,
+                                      axisymmetric=axisymmetric) if conserve_area else None
 
     def _slip_bcs(self, Vw):
         """w·n = 0 on every solid side parallel to an axis (w_y on the bed y = 0, w_x on the

@@ -146,7 +146,8 @@ class NumericsConfig(_Section):
         "trimming the film and resampling changed, by moving the free surface along its normal")
     step_conserve_area: bool = Field(
         False, strict=True, description="Every mesh move puts back its own area change (the "
-        "dt^2 term of the explicit node update) by moving the free surface along its normal")
+        "dt^2 term of the explicit node update) by moving the free surface along its normal; "
+        "geometry.symmetry axisymmetric: the body's volume 2 pi r dA")
     remesh_surgery: bool = Field(
         True, strict=True, description="Remeshing rebuilds a free surface that touches the bed "
         "or the mass itself (closer than 0.25 geometry.mesh_size, or crossing) as the union of "

@@ -148,9 +148,6 @@ class Config(_Section):
         if self.numerics.linear_solver == "iterative":
             raise ConfigError(f"numerics.linear_solver = 'iterative': not available with {first}; "
                               f"use mumps or superlu_dist")
-        if self.numerics.step_conserve_area:
-            raise ConfigError(f"numerics.step_conserve_area = true: not available with {first} "
-                              f"(it keeps the section's area, not the body's volume); must be false")
 
     def _two_phase(self) -> None:
         """The fixed box must contain the column; the rest is refused (one line each)."""

@@ -150,7 +150,6 @@ def test_axisymmetric_column_loads():
             "model.min_cell = 0.005",
         ),
         (["numerics.linear_solver=iterative"], "numerics.linear_solver = 'iterative'"),
-        (["numerics.step_conserve_area=true"], "numerics.step_conserve_area = true"),
     ],
 )
 def test_unsupported_combinations_are_refused_in_one_line(extra, expected):

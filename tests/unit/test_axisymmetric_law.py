@@ -1,0 +1,74 @@
+"""studies/benchmarks/axisymmetric/law.py (issue 52): the power fit above a ≈ 2 recovers a
+known exponent and gives its standard error, the laboratory's fits as quoted, and a run
+directory read into its deposit (runout at the thickness front, volume drift, CPU)."""
+
+import json
+import sys
+
+import numpy as np
+import pytest
+
+from tests.helpers import ROOT
+
+sys.path.insert(0, str(ROOT / "studies" / "benchmarks" / "axisymmetric"))
+import law  # noqa: E402
+
+
+def test_the_power_fit_recovers_the_exponent_and_its_error():
+    a = np.array([2.0, 3.0, 6.0, 10.0])
+    c, n, se = law.power_fit(a, 1.6 * a ** 0.5)
+    assert (c, n) == pytest.approx((1.6, 0.5), rel=1e-12)
+    assert se == pytest.approx(0.0, abs=1e-12)
+    # a perturbed law: the exponent's standard error from the residuals
+    y = 1.6 * a ** 0.5 * np.exp(np.array([0.02, -0.03, 0.01, 0.0]))
+    _, n, se = law.power_fit(a, y)
+    x, z = np.log(a), np.log(y)
+    slope, intercept = np.polyfit(x, z, 1)
+    resid = z - (slope * x + intercept)
+    expected = np.sqrt(resid @ resid / 2 / np.sum((x - x.mean()) ** 2))
+    assert n == pytest.approx(slope, rel=1e-12) and se == pytest.approx(expected, rel=1e-10)
+    assert np.isnan(law.power_fit(a[:2], y[:2])[2])        # two points: no error
+
+
+def test_the_laboratory_fits_as_quoted():
+    assert law.lube([1.0, 1.7, 4.0]) == pytest.approx([1.24, 1.24 * 1.7, 3.2])
+    assert law.lajeunesse([0.5, 3.0, 4.0]) == pytest.approx([0.5, 3.0, 4.0])
+
+
+def test_a_run_directory_is_read_into_its_deposit(tmp_path):
+    run = tmp_path / "axi_a2_h0.01"
+    run.mkdir()
+    (run / "config.yaml").write_text(
+        "geometry: {shape: column, symmetry: axisymmetric, height: 0.2, base_length: 0.1, "
+        "mesh_size: 0.01}\nmaterial: {rheology: mu_i}\nboundary: {bed_condition: no_slip}\n")
+    (run / "run.json").write_text(json.dumps({"status": "at_rest"}))
+    (run / "diagnostics.csv").write_text(
+        "step,t,front,thick_front,max_height,area,remeshes,surgeries\n"
+        "0,0.0,0.1,0.1,0.2,0.0062831853,0,0\n"
+        "500,0.5,0.36,0.34,0.055,0.0062831790,40,2\n")
+    (tmp_path / "axi_a2_h0.01.time").write_text("Command exited with non-zero status 1\n12.5 0.5 40.1\n")
+    row = law.run_row(run)
+    assert row["a"] == pytest.approx(2.0) and row["status"] == "at_rest"
+    assert row["thickness_runout"] == pytest.approx(2.4) and row["mass_runout"] == pytest.approx(2.6)
+    assert row["height"] == pytest.approx(0.55)
+    assert row["volume_drift"] == pytest.approx((0.0062831790 - 0.0062831853) / 0.0062831853, rel=1e-9)
+    assert row["cpu"] == pytest.approx(13.0) and row["surgeries"] == 2
+
+
+def test_a_run_not_at_rest_is_read_where_it_settled(tmp_path):
+    """A deposit still creeping at the end (status end_time) is read at its first row after
+    the kinetic energy's peak below 1e-3 of it."""
+    run = tmp_path / "axi_a0.5_h0.01"
+    run.mkdir()
+    (run / "config.yaml").write_text(
+        "geometry: {height: 0.05, base_length: 0.1, mesh_size: 0.01}\nmaterial: {rheology: mu_i}\n")
+    (run / "run.json").write_text(json.dumps({"status": "end_time"}))
+    (run / "diagnostics.csv").write_text(
+        "step,t,front,thick_front,max_height,area,remeshes,kinetic_energy\n"
+        "0,0.0,0.1,0.1,0.05,1.0,0,0.0\n"
+        "100,0.1,0.15,0.14,0.045,1.0,9,2.0\n"
+        "400,0.4,0.17,0.16,0.0435,1.0,29,1.9e-3\n"
+        "3000,3.0,0.158,0.151,0.046,1.0,153,3.0e-3\n")
+    row = law.run_row(run)
+    assert row["state"] == "settled" and row["t"] == pytest.approx(0.4)
+    assert row["thickness_runout"] == pytest.approx(0.6)
