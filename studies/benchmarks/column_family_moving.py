@@ -171,12 +171,30 @@ def bands(ax) -> None:
                     label="experiments 1.9–2.3 a^(2/3)")
 
 
+def print_fits(moving: list[dict]) -> None:
+    """ΔL/L0 = c a^n (least squares in log-log) on a ≤ 3 and a ≥ 3, per bed and cells, of the
+    thickness front at 6 mm and at the run's own 3 d, and H_f/L0 on a ≥ 1."""
+    for bed in sorted({r["bed"] for r in moving}):
+        for cells in sorted({r["cells"] for r in moving if r["bed"] == bed}):
+            sel = [r for r in moving if r["bed"] == bed and r["cells"] == cells]
+            a = np.array([float(r["a"]) for r in sel])
+            for key, lo, hi in (("front_6mm", 0, 3), ("front_6mm", 3, 99), ("thickness_front", 0, 3),
+                                ("thickness_front", 3, 99), ("max_height", 1, 99)):
+                y = np.array([float(r[key]) for r in sel])
+                ok = (a >= lo - 1e-9) & (a <= hi + 1e-9) & (y > 0)
+                if ok.sum() >= 2:
+                    n, logc = np.polyfit(np.log(a[ok]), np.log(y[ok]), 1)
+                    print(f"{bed}, {cells}: {key} on {lo} ≤ a ≤ {hi}: {np.exp(logc):.2f} a^{n:.2f} "
+                          f"({ok.sum()} points)")
+
+
 def figure(out: Path, moving_csv: Path, two_phase_csv: Path) -> None:
     with moving_csv.open() as f:
         moving = list(csv.DictReader(f))
     tp = two_phase_law(two_phase_csv)
     fig, axes = plt.subplots(1, 3, figsize=(16, 5.2))
-    colours = {"L0/16": "C0", "L0/20": "C2", "L0/32": "C1"}
+    colours = {"L0/16": "C0", "L0/20": "C2", "L0/32": "C1"}          # the two-phase law's
+    mm_colours = {"L0/16": "k", "L0/20": "C3", "L0/32": "C4"}       # the moving mesh's
     for ax, bed, tp_bed in ((axes[0], "no_slip", "no slip"), (axes[1], "coulomb", "Coulomb")):
         bands(ax)
         rows = [r for r in moving if r["bed"].startswith(bed)]
@@ -187,7 +205,7 @@ def figure(out: Path, moving_csv: Path, two_phase_csv: Path) -> None:
             rested = np.array([r["status"] == "at_rest" for r in sel])
             f6 = np.array([float(r["front_6mm"]) for r in sel])
             own = np.array([float(r["thickness_front"]) for r in sel])
-            c = colours.get(cells, "C3")
+            c = mm_colours.get(cells, "C5")
             ax.loglog(a, f6, "o-", color=c, label=f"moving mesh {cells}, h_f = 6 mm")
             ax.loglog(a, own, "o:", color=c, mfc="white", label=f"moving mesh {cells}, h_f = 3 d (its d)")
             if (~rested).any():
@@ -214,7 +232,8 @@ def figure(out: Path, moving_csv: Path, two_phase_csv: Path) -> None:
         for cells in sorted({r["cells"] for r in rows}, key=lambda c: float(c.split("/")[1])):
             sel = sorted((r for r in rows if r["cells"] == cells), key=lambda r: float(r["a"]))
             ax.loglog([float(r["a"]) for r in sel], [float(r["max_height"]) for r in sel], marker + "-",
-                      color=colours.get(cells, "C3"), label=f"moving mesh, {bed}, {cells}")
+                      color=mm_colours.get(cells, "C5"), mfc="white" if bed == "coulomb" else None,
+                      label=f"moving mesh, {bed}, {cells}")
     for name, rs in tp.items():
         rs = sorted(rs, key=lambda r: float(r["a"]))
         ax.loglog([float(r["a"]) for r in rs], [float(r["max_height"]) for r in rs],
@@ -222,6 +241,7 @@ def figure(out: Path, moving_csv: Path, two_phase_csv: Path) -> None:
                   color=colours.get(name.split(", ")[1], "C3"), label=f"two-phase, {name}")
     ax.set_xlabel("a = H0/L0"), ax.set_ylabel("H_f/L0"), ax.set_title("deposit height", fontsize=10)
     ax.grid(alpha=0.3, which="both"), ax.legend(fontsize=6, loc="upper left")
+    print_fits(moving)
     fig.suptitle("Column runout law: moving mesh (μ(I), d per a: 3 d = 5–18 mm) beside the two-phase "
                  "model (d = 2 mm), both read at h_f = 6 mm", fontsize=11)
     fig.tight_layout()
