@@ -155,13 +155,13 @@ class TwoPhaseModel(_Section):
     compression: Number = _f(
         1.0, "", "Interface compression: flux C |u.n| c_donor (1 - c_receiver) towards the fuller "
         "cell (0: plain upwind)", ge=0, le=2)
-    compression_direction: Literal["facet", "normal", "layer", "skip_layers"] = _f(
+    compression_direction: Literal["facet", "normal", "layer_normal", "skip_layers"] = _f(
         "normal", "", "Where the interface compression acts: normal (the default since 2026-12-05: "
         "each facet's flux weighted by |n_i . n_f|, n_i the interface normal from the gradient "
         "of c averaged to the vertices: across the interface, as OpenFOAM's compression velocity "
         "along grad c) or facet (the default before: across every facet with a jump of c, also "
         "along a thin layer, whose leading cells it pulls back into the fuller ones behind: "
-        "fronts 10-25 % short; docs/benchmarks/2026-12-05-two-phase-compression.md); layer: "
+        "fronts 10-25 % short; docs/benchmarks/2026-12-05-two-phase-compression.md); layer_normal: "
         "as normal, but in a layer thinner than two cells the normal of its height function "
         "(-h', 1), across the layer, so a tongue on the bed is not pulled back along itself; "
         "skip_layers: no compression in such a layer (docs/benchmarks/2026-12-07-two-phase-thin-front.md)")
@@ -171,7 +171,7 @@ class TwoPhaseModel(_Section):
         "velocity C |u| n_i: also across the top of a layer sheared along the bed; "
         "docs/benchmarks/2026-12-07-two-phase-thin-front.md)")
     thin_layer_cells: Number = _f(
-        2.0, "", "compression_direction layer / skip_layers: a layer whose thickness (the column "
+        2.0, "", "compression_direction layer_normal / skip_layers: a layer whose thickness (the column "
         "integral of c over a strip of the fine cell's width) is below this many fine cells is thin "
         "(2: the vertex average of c spans a cell on either side)", gt=0, le=20)
     open_top: Literal["traction_free", "hydrostatic"] = _f(

@@ -264,10 +264,10 @@ def interface_alignment(gradient, n):
 
 
 #: where the interface compression acts (``model.compression_direction``)
-COMPRESSION_DIRECTIONS = ("facet", "normal", "layer", "skip_layers")
+COMPRESSION_DIRECTIONS = ("facet", "normal", "layer_normal", "skip_layers")
 
 
-def layer_alignment(gradient, layer_normal, thin, n, direction: str = "layer"):
+def layer_alignment(gradient, layer_normal, thin, n, direction: str = "layer_normal"):
     """The facet alignment a_f in and out of thin layers (``models.two_phase.layer_normal``:
     ``layer_normal`` n_h the DG0 normal (−h', 1)/√(1 + h'²) of the layer's height function h,
     ``thin`` the DG0 indicator of a layer thinner than two cells)::
@@ -276,10 +276,10 @@ def layer_alignment(gradient, layer_normal, thin, n, direction: str = "layer"):
                      |ĝ·n⁺|         elsewhere (``interface_alignment``, ĝ from ∇c̄)
         skip_layers  a = 0          on a facet of a thin layer's cell,  |ĝ·n⁺| elsewhere
 
-    ``layer``: across the layer the full compression, along it only its slope's share
+    ``layer_normal``: across the layer the full compression, along it only its slope's share
     |h'|/√(1 + h'²) (a tongue lying on the bed is not pulled back along itself);
     ``skip_layers``: no compression at all in the layer (plain upwind there)."""
-    _one_of(direction, ("layer", "skip_layers"), "compression direction")
+    _one_of(direction, ("layer_normal", "skip_layers"), "compression direction")
     normal = interface_alignment(gradient, n)
     in_layer = ufl.gt(ufl.avg(thin), 0.25)   # thin ∈ {0, 1}: avg ≥ ½ if either cell is
     if direction == "skip_layers":

@@ -8,7 +8,7 @@ advected with the sub-step count of c.
   that (Δt/N) max_K ∫_∂K ((u·n)⁺ + C|u·n|) ds / |K| ≤ the Courant number. The fluxes' matrices
   are assembled once per step and each sub-step is a sparse product (``fluxes``); with
   ``direction`` "normal" the compression's facet weights carry |n̂·n|, n̂ from the gradient of
-  c averaged to the vertices at the start of the step (``_VertexAverage``); with "layer"
+  c averaged to the vertices at the start of the step (``_VertexAverage``); with "layer_normal"
   ("skip_layers") a layer thinner than two cells takes the normal of its height function
   (no compression) instead (``layer_normal``, on the box's ``strips``). Under MPI
   the ghost values of c are updated by a forward scatter after every sub-step.
@@ -67,7 +67,7 @@ class VolumeFraction:
         self.direction = direction   # of the compression: "facet" or "normal" (to the interface)
         self._vertex = None          # c̄: c averaged to the vertices (P1), for "normal"
         #: (width, count) of the box's strips from x = 0: the thin layers' height function
-        #: (``layer_normal``) of the directions "layer" and "skip_layers"
+        #: (``layer_normal``) of the directions "layer_normal" and "skip_layers"
         self.strips, self.thin_layer_cells = strips, thin_layer_cells
         self.speed = speed           # of the compression: |u·n| ("facet") or |u| ("full")
         self._layer = None
@@ -113,7 +113,7 @@ class VolumeFraction:
             if self._vertex is None:
                 self._vertex = _VertexAverage(self.c)
             gradient = ufl.grad(self._vertex.function)
-        if self.direction in ("layer", "skip_layers") and C > 0:
+        if self.direction in ("layer_normal", "skip_layers") and C > 0:
             if self.strips is None:
                 raise ValueError(f"compression direction {self.direction!r} needs the box's strips")
             if self._layer is None:

@@ -1,5 +1,5 @@
 """The interface normal of a thin layer on the bed from its height function (issue 50), for
-the interface compression's facet alignment (``model.compression_direction: layer``).
+the interface compression's facet alignment (``model.compression_direction: layer_normal``).
 
 The box's strips S_j = [j Δ, (j + 1) Δ] × ℝ (Δ the fine cell size, the strips of the measures'
 h(x)) carry the layer's thickness (the height function)::
