@@ -4,7 +4,7 @@ Report: docs/benchmarks/2026-12-07-column-family-moving-mesh.md.
 
     python studies/benchmarks/column_family_moving.py commands [--cells 16,32] [--beds no_slip,coulomb]
         [--a 0.5,3]
-    python studies/benchmarks/column_family_moving.py table OUT.csv RUN_DIR...
+    python studies/benchmarks/column_family_moving.py table OUT.csv RUN_DIR...   (OUT.csv's other rows kept)
     python studies/benchmarks/column_family_moving.py figure OUT.png MOVING.csv TWO_PHASE.csv
 
 ``commands`` prints one ``dpcollapse run`` line per case (a, bed, cells L0/n), each under
@@ -258,11 +258,19 @@ def main(argv: list[str]) -> None:
         print("\n".join(commands(cells, beds, aspect)))
     elif kind == "table":
         rows = [run_row(Path(d)) for d in argv[2:]]
+        printed = rows
+        if Path(argv[1]).is_file():   # keep the table's other cases; a case run again replaces its row
+            new = {(r["bed"], str(r["a"]), r["cells"]): r for r in rows}
+            with open(argv[1]) as f:
+                old = list(csv.DictReader(f))
+            keys = {(r["bed"], r["a"], r["cells"]) for r in old}
+            rows = ([new.get((r["bed"], r["a"], r["cells"]), r) for r in old]
+                    + [r for k, r in new.items() if k not in keys])
         with open(argv[1], "w", newline="") as f:
             writer = csv.DictWriter(f, fieldnames=COLUMNS)
             writer.writeheader()
             writer.writerows(rows)
-        for r in rows:
+        for r in printed:
             print(" | ".join(str(r[k]) for k in COLUMNS))
     elif kind == "figure":
         figure(Path(argv[1]), Path(argv[2]), Path(argv[3]))
