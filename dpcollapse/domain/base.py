@@ -65,7 +65,8 @@ def make_domain(cfg) -> Domain:
         return MovingDomain(n.remesh_min_angle, cfg.geometry.mesh_size,
                             cfg.geometry.surface_mesh_size, film_trim_thickness(cfg),
                             n.remesh_conserve_area, n.remesh_surgery,
-                            axisymmetric=cfg.geometry.coordinates == "axisymmetric")
+                            axisymmetric=cfg.geometry.coordinates == "axisymmetric",
+                            trim_face_slope=film_face_slope(cfg))
     from dpcollapse.domain.fixed import FixedDomain
 
     return FixedDomain()
@@ -77,6 +78,20 @@ def film_trim_thickness(cfg) -> float:
     n = cfg.numerics
     grains = n.remesh_film_trim_grains * getattr(cfg.material, "grain_diameter", 0.0)
     return max(n.remesh_film_trim * cfg.geometry.mesh_size, grains)
+
+
+def film_face_slope(cfg) -> float | None:
+    """The slope μ_r of the film trim's cut face (``numerics.remesh_film_trim_face``): with
+    ``repose``, μ_r = min(μ_s, μ_b), the material's friction tan(material.friction_angle) and,
+    on a Coulomb bed, the bed's tan(boundary.bed_friction_angle) where it is lower (a face at
+    that slope is at the yield of both; ``geometry.film_face``); None (a vertical cut) with
+    ``vertical`` or where μ_r = 0 (no angle of repose)."""
+    if cfg.numerics.remesh_film_trim_face != "repose":
+        return None
+    slope = cfg.material.mu_s
+    if cfg.boundary.bed_condition == "coulomb":
+        slope = min(slope, cfg.boundary.mu_bed)
+    return slope if slope > 0 else None
 
 
 def refuse_degenerate(domain: Domain, disc, t: float, dt: float, message: str) -> None:

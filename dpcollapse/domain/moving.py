@@ -70,8 +70,11 @@ class MovingDomain:
     def __init__(self, remesh_min_angle: float, mesh_size: float,
                  surface_mesh_size: float | None = None, trim_thickness: float = 0.0,
                  conserve_area: bool = False, surgery: bool = False,
-                 axisymmetric: bool = False):
+                 axisymmetric: bool = False, trim_face_slope: float | None = None):
         self.remesh_min_angle = remesh_min_angle
+        #: the slope μ_r of the film trim's cut face (``domain.base.film_face_slope``; None:
+        #: vertical)
+        self.trim_face_slope = trim_face_slope
         #: geometry.symmetry axisymmetric: a remesh puts back the body's volume, not the area
         self.axisymmetric = axisymmetric
         self.surgery = surgery
@@ -183,7 +186,8 @@ class MovingDomain:
             new, _, nverts = remesh_regions(tagged, self.mesh_size, self.surface_mesh_size,
                                             tolerance * area0, self.trim_thickness,
                                             self.conserve_area, self.surgery, self.surgeries,
-                                            axisymmetric=self.axisymmetric)
+                                            axisymmetric=self.axisymmetric,
+                                            trim_face_slope=self.trim_face_slope)
         except ValueError as exc:   # the boundary is no longer one closed loop
             raise MeshError(f"mesh degenerate: cannot remesh, {exc}") from exc
         reason = _below_floor(quality(new.mesh)["min_angle"])
