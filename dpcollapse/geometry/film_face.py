@@ -20,8 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Relative size [of the edge] below which a piece of an edge inside the wedge is ignored.
-EDGE_TOLERANCE = 1e-12
+#: Distance [m] by which a point must be inside the wedge to count as inside: a point on
+#: its rays up to round-off (the face of an earlier cut) is outside, so a second cut of a
+#: cut polygon removes nothing.
+RAY_TOLERANCE = 1e-12
 
 
 def lowest_point_at(points: np.ndarray, x: float) -> float:
@@ -38,18 +40,19 @@ def lowest_point_at(points: np.ndarray, x: float) -> float:
 
 
 def _inside(p: np.ndarray, apex: np.ndarray, slope: float) -> np.ndarray:
-    """Strictly inside the wedge W (points on its two rays are outside)."""
+    """Inside the wedge W by more than ``RAY_TOLERANCE`` (points on its rays are outside)."""
     d = p - apex
-    return (d[..., 0] > 0) & (d[..., 1] + slope * d[..., 0] > 0)
+    return (d[..., 0] > RAY_TOLERANCE) & (d[..., 1] + slope * d[..., 0] > RAY_TOLERANCE)
 
 
 def _interval(a: np.ndarray, b: np.ndarray, apex: np.ndarray, slope: float):
     """The part (t_in, t_out) of the segment a + t (b − a), t ∈ [0, 1], inside W, with the
     ray each end lies on (0: the vertical ray, 1: the sloped one; −1: the segment's own
-    end), or None (Cyrus–Beck against W's two half-planes n_k·(p − apex) > 0)."""
+    end), or None (Cyrus–Beck against W's two half-planes n_k·(p − apex) > ``RAY_TOLERANCE``,
+    the same test as ``_inside``)."""
     t_in, t_out, ray_in, ray_out = 0.0, 1.0, -1, -1
     for k, n in enumerate((np.array([1.0, 0.0]), np.array([slope, 1.0]))):
-        g0, g1 = float(n @ (a - apex)), float(n @ (b - a))
+        g0, g1 = float(n @ (a - apex)) - RAY_TOLERANCE, float(n @ (b - a))
         if g1 == 0.0:
             if g0 <= 0.0:
                 return None
@@ -61,7 +64,7 @@ def _interval(a: np.ndarray, b: np.ndarray, apex: np.ndarray, slope: float):
             t = -g0 / g1
             if t <= t_out:
                 t_out, ray_out = t, k
-    if t_out - t_in <= EDGE_TOLERANCE:
+    if t_out <= t_in:
         return None
     return t_in, t_out, ray_in, ray_out
 
