@@ -3,6 +3,8 @@ config has (``make_domain``)."""
 
 from __future__ import annotations
 
+import math
+
 from typing import Protocol
 
 
@@ -66,7 +68,8 @@ def make_domain(cfg) -> Domain:
                             cfg.geometry.surface_mesh_size, film_trim_thickness(cfg),
                             n.remesh_conserve_area, n.remesh_surgery,
                             axisymmetric=cfg.geometry.coordinates == "axisymmetric",
-                            trim_face_slope=film_face_slope(cfg))
+                            trim_face_slope=film_face_slope(cfg),
+                            trim_face_speed=film_face_speed(cfg))
     from dpcollapse.domain.fixed import FixedDomain
 
     return FixedDomain()
@@ -92,6 +95,14 @@ def film_face_slope(cfg) -> float | None:
     if cfg.boundary.bed_condition == "coulomb":
         slope = min(slope, cfg.boundary.mu_bed)
     return slope if slope > 0 else None
+
+
+def film_face_speed(cfg) -> float:
+    """√(g δ) [m/s], δ the film trim's thickness (``film_trim_thickness``): the speed at which
+    a face δ high slumps. A front slower than this is not carried by the collapse (a
+    deposit: its film is cut at the angle of repose, ``film_face_slope``); a faster one is the
+    flowing front, cut vertically."""
+    return math.sqrt(cfg.material.gravity * film_trim_thickness(cfg))
 
 
 def refuse_degenerate(domain: Domain, disc, t: float, dt: float, message: str) -> None:

@@ -29,6 +29,9 @@ from __future__ import annotations
 import logging
 import math
 
+import numpy as np
+from mpi4py import MPI
+
 from dpcollapse import compat
 from dpcollapse.ale.motion import quality, retag_bed
 from dpcollapse.ale.remesh import boundary_contact
@@ -70,11 +73,15 @@ class MovingDomain:
     def __init__(self, remesh_min_angle: float, mesh_size: float,
                  surface_mesh_size: float | None = None, trim_thickness: float = 0.0,
                  conserve_area: bool = False, surgery: bool = False,
-                 axisymmetric: bool = False, trim_face_slope: float | None = None):
+                 axisymmetric: bool = False, trim_face_slope: float | None = None,
+                 trim_face_speed: float = math.inf):
         self.remesh_min_angle = remesh_min_angle
         #: the slope μ_r of the film trim's cut face (``domain.base.film_face_slope``; None:
-        #: vertical)
-        self.trim_face_slope = trim_face_slope
+        #: vertical), used while the front is slower than ``trim_face_speed`` = √(g δ) [m/s]
+        #: (a deposit); a faster front (the collapse) is cut vertically
+        self.trim_face_slope, self.trim_face_speed = trim_face_slope, trim_face_speed
+        #: the largest node speed within one cell of the front, at the last remesh check
+        self.front_speed = 0.0
         #: geometry.symmetry axisymmetric: a remesh puts back the body's volume, not the area
         self.axisymmetric = axisymmetric
         self.surgery = surgery
@@ -161,6 +168,8 @@ class MovingDomain:
         return _below_floor(quality(disc.mesh)["min_angle"])
 
     def needs_remesh(self, disc, state) -> str | None:
+        if self.trim_face_slope is not None:
+            self.front_speed = front_speed(disc, self.mesh_size)
         q = quality(disc.mesh)
         if _below_floor(q["min_angle"]) and state.last_remesh_step != state.step:
             return f"min angle {q['min_angle']:.2f}° below the floor {MIN_ANGLE_FLOOR:g}°"
@@ -182,12 +191,13 @@ class MovingDomain:
         trimmed and the area put back with ``conserve_area`` (``ale.remesh.remesh_domain``).
         MeshError when the boundary is no longer one closed loop."""
         tolerance = REMESH_AREA_TOLERANCE_CONSERVED if self.conserve_area else REMESH_AREA_TOLERANCE
+        slope = self.trim_face_slope if self.front_speed < self.trim_face_speed else None
         try:
             new, _, nverts = remesh_regions(tagged, self.mesh_size, self.surface_mesh_size,
                                             tolerance * area0, self.trim_thickness,
                                             self.conserve_area, self.surgery, self.surgeries,
                                             axisymmetric=self.axisymmetric,
-                                            trim_face_slope=self.trim_face_slope)
+                                            trim_face_slope=slope)
         except ValueError as exc:   # the boundary is no longer one closed loop
             raise MeshError(f"mesh degenerate: cannot remesh, {exc}") from exc
         reason = _below_floor(quality(new.mesh)["min_angle"])
@@ -219,6 +229,18 @@ class MovingDomain:
             log.warning("remesh %d: the new mesh's smallest angle is %.1f° (< %g°, set by the "
                         "boundary); the next remesh waits until it drops below %.1f°",
                         state.remeshes, after, self.remesh_min_angle, REMESH_DEGRADATION * after)
+
+
+def front_speed(disc, reach: float) -> float:
+    """The largest mesh-node speed |w| [m/s] within ``reach`` [m] of the front (the largest x
+    of the mesh), the same on every rank: how fast the film the trim cuts moves."""
+    x = disc.mesh.geometry.x[:, 0]
+    comm = disc.mesh.comm
+    front = comm.allreduce(float(x.max()) if len(x) else -math.inf, op=MPI.MAX)
+    w = disc.motion.node_velocity()
+    near = x >= front - reach
+    local = float(np.linalg.norm(w[near], axis=1).max()) if near.any() else 0.0
+    return comm.allreduce(local, op=MPI.MAX)
 
 
 def _below_floor(min_angle: float) -> str | None:
