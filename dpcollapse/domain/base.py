@@ -99,9 +99,9 @@ def film_face_slope(cfg) -> float | None:
 
 def film_face_speed(cfg) -> float:
     """√(g δ) [m/s], δ the film trim's thickness (``film_trim_thickness``): the speed at which
-    a face δ high slumps. A front slower than this is not carried by the collapse (a
-    deposit: its film is cut at the angle of repose, ``film_face_slope``); a faster one is the
-    flowing front, cut vertically."""
+    a face δ high slumps. A thickness front slower than this (``MovingDomain.front_speed``)
+    is not carried by the collapse (a deposit: its film is cut at the angle of repose,
+    ``film_face_slope``); a faster one is the flowing front, cut vertically."""
     return math.sqrt(cfg.material.gravity * film_trim_thickness(cfg))
 
 

@@ -29,9 +29,6 @@ from __future__ import annotations
 import logging
 import math
 
-import numpy as np
-from mpi4py import MPI
-
 from dpcollapse import compat
 from dpcollapse.ale.motion import quality, retag_bed
 from dpcollapse.ale.remesh import boundary_contact
@@ -77,11 +74,14 @@ class MovingDomain:
                  trim_face_speed: float = math.inf):
         self.remesh_min_angle = remesh_min_angle
         #: the slope μ_r of the film trim's cut face (``domain.base.film_face_slope``; None:
-        #: vertical), used while the front is slower than ``trim_face_speed`` = √(g δ) [m/s]
-        #: (a deposit); a faster front (the collapse) is cut vertically
+        #: vertical), used while the thickness front moves slower than ``trim_face_speed`` =
+        #: √(g δ) [m/s] (a deposit); a faster front (the collapse) is cut vertically
         self.trim_face_slope, self.trim_face_speed = trim_face_slope, trim_face_speed
-        #: the largest node speed within one cell of the front, at the last remesh check
-        self.front_speed = 0.0
+        #: |dx_f/dt| [m/s] of the thickness front over the steps since the last remesh (inf
+        #: until two steps are known), and those steps' first and last (t, x_f)
+        self.front_speed = math.inf
+        self._front_since: tuple[float, float] | None = None
+        self._front_now: tuple[float, float] | None = None
         #: geometry.symmetry axisymmetric: a remesh puts back the body's volume, not the area
         self.axisymmetric = axisymmetric
         self.surgery = surgery
@@ -151,6 +151,7 @@ class MovingDomain:
         velocity, so the kinetic energy of step n−1 is compared with the work up to step n;
         a gain above (1 + ENERGY_TOLERANCE) W means a numerical instability (MeshError)."""
         st, m = state, measures
+        self._track_front(st.t, m.get("thick_front"))
         work = m["gravity_moment"] - st.gravity_moment0
         previous = st.kinetic_energy_previous
         gained = (st.kinetic_energy0 if previous is None else previous) - st.kinetic_energy0
@@ -162,14 +163,24 @@ class MovingDomain:
                 f"{m['min_angle']:.2f}°: the mass is likely thinner than geometry.mesh_size = "
                 f"{self.mesh_size:g} m somewhere — use a finer mesh or a shorter time.end_time")
 
+    def _track_front(self, t: float, x_f: float | None) -> None:
+        """The thickness front's speed over the steps since the last remesh (a window without
+        the remesh's own jumps of x_f): ``front_speed``, for the film trim's cut face."""
+        if x_f is None or not math.isfinite(x_f):
+            return
+        if self._front_since is None:
+            self._front_since = (t, x_f)
+        self._front_now = (t, x_f)
+        (t0, x0), (t1, x1) = self._front_since, self._front_now
+        if t1 > t0:
+            self.front_speed = abs(x1 - x0) / (t1 - t0)
+
     def degenerate(self, disc) -> str | None:
         """Why the current mesh cannot carry a solve (smallest angle below
         MIN_ANGLE_FLOOR, non-finite nodes), or None."""
         return _below_floor(quality(disc.mesh)["min_angle"])
 
     def needs_remesh(self, disc, state) -> str | None:
-        if self.trim_face_slope is not None:
-            self.front_speed = front_speed(disc, self.mesh_size)
         q = quality(disc.mesh)
         if _below_floor(q["min_angle"]) and state.last_remesh_step != state.step:
             return f"min angle {q['min_angle']:.2f}° below the floor {MIN_ANGLE_FLOOR:g}°"
@@ -214,6 +225,7 @@ class MovingDomain:
         below ``remesh_min_angle`` (set by a sharp boundary corner) say so: the next remesh
         then waits until the angle drops below REMESH_DEGRADATION × it."""
         after = state.remesh_angle_after = quality(disc.mesh)["min_angle"]
+        self._front_since = None     # the front's speed: over the steps of the new mesh
         for done in self.surgeries[len(self.surgery_events) - self._listed:]:   # this remesh's
             event = {"t": state.t, "step": state.step, "remesh": state.remeshes,
                      "what": done.describe(), "area_change": done.area_change,
@@ -229,18 +241,6 @@ class MovingDomain:
             log.warning("remesh %d: the new mesh's smallest angle is %.1f° (< %g°, set by the "
                         "boundary); the next remesh waits until it drops below %.1f°",
                         state.remeshes, after, self.remesh_min_angle, REMESH_DEGRADATION * after)
-
-
-def front_speed(disc, reach: float) -> float:
-    """The largest mesh-node speed |w| [m/s] within ``reach`` [m] of the front (the largest x
-    of the mesh), the same on every rank: how fast the film the trim cuts moves."""
-    x = disc.mesh.geometry.x[:, 0]
-    comm = disc.mesh.comm
-    front = comm.allreduce(float(x.max()) if len(x) else -math.inf, op=MPI.MAX)
-    w = disc.motion.node_velocity()
-    near = x >= front - reach
-    local = float(np.linalg.norm(w[near], axis=1).max()) if near.any() else 0.0
-    return comm.allreduce(local, op=MPI.MAX)
 
 
 def _below_floor(min_angle: float) -> str | None:
