@@ -4,7 +4,6 @@ config has (``make_domain``)."""
 from __future__ import annotations
 
 import math
-
 from typing import Protocol
 
 
