@@ -24,6 +24,7 @@ import numpy as np
 
 from dpcollapse import parallel
 from dpcollapse.geometry.boundary_loops import BoundaryLoops
+from dpcollapse.geometry.film_face import cut_at_repose
 from dpcollapse.geometry.mesher import BED, SURFACE, TaggedMesh, boundary_edges, mesh_polygon
 from dpcollapse.geometry.polygon import (
     BoundaryPolygon,
@@ -78,16 +79,19 @@ def _repaired(all_edges, all_tags, trim_thickness: float) -> _Repaired:
     return _Repaired(repair_polygon(folded, trim_thickness), folded.area)
 
 
-def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0) -> BoundaryPolygon:
+def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0,
+                   face_slope: float | None = None) -> BoundaryPolygon:
     """With ``trim_thickness`` > 0: untangle a folded free surface (``polygon.untangle``),
     drop hairpin spikes of the surface (``polygon.remove_spikes``), put the underside
     of a nose closer to the bed than it on the bed (one run of vertices from the bed,
     ``_landing_underside``) and cut off the film ahead of the last
     point x_f where the mass is at least that thick
     (``scenes.base.thickness_front``) by the vertical x = x_f (tagged free surface; the
-    cut face, δ high, slumps a little after each trim). A trim
-    that would leave a non-simple polygon (the mass crossing x = x_f several times) is
-    skipped."""
+    cut face, δ high, slumps a little after each trim), or with ``face_slope`` = μ_r > 0
+    by a face of that slope from δ above the mass's foot at x_f down to the bed
+    (``geometry.film_face.cut_at_repose``: a face at the angle of repose, which does not
+    slump; the vertical cut where it cannot be made). A trim that would leave a non-simple
+    polygon (the mass crossing x = x_f several times) is skipped."""
     if trim_thickness <= 0:
         # no repair asked for: a surface folded through itself ends the run (exit 4, where)
         if not polygon_is_simple(poly.points):
@@ -113,9 +117,15 @@ def repair_polygon(poly: BoundaryPolygon, trim_thickness: float = 0.0) -> Bounda
         x_cut = thickness_front(points, trim_thickness)
         xmin, xmax = points[:, 0].min(), points[:, 0].max()
         if xmin < x_cut < xmax:
-            clipped, clipped_tags = clip_right(points, tags, x_cut, SURFACE)
-            if len(clipped) >= 3 and polygon_is_simple(clipped):
-                points, tags = clipped, clipped_tags
+            cut = None
+            if face_slope is not None and face_slope > 0:
+                cut = cut_at_repose(points, tags, x_cut, trim_thickness, face_slope, SURFACE)
+                if cut is not None and not (len(cut[0]) >= 3 and polygon_is_simple(cut[0])):
+                    cut = None
+            if cut is None:
+                cut = clip_right(points, tags, x_cut, SURFACE)
+            if len(cut[0]) >= 3 and polygon_is_simple(cut[0]):
+                points, tags = cut
     return BoundaryPolygon(points, tags)
 
 
@@ -143,10 +153,12 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
                   max_area_change: float, trim_thickness: float = 0.0,
                   conserve_area: bool = False, surgery: bool = False,
                   surgeries: list | None = None,
-                  axisymmetric: bool = False) -> tuple[TaggedMesh, float, int]:
+                  axisymmetric: bool = False,
+                  trim_face_slope: float | None = None) -> tuple[TaggedMesh, float, int]:
     """A new mesh of the current domain; returns (mesh, polygon area change, #vertices).
 
-    ``trim_thickness`` [m] > 0 trims a front film thinner than it (``repair_polygon``);
+    ``trim_thickness`` [m] > 0 trims a front film thinner than it (``repair_polygon``), by a
+    face of slope ``trim_face_slope`` (None: vertical);
     ``conserve_area`` puts back the area that surgery, untangling, trimming and resampling
     changed by moving the free surface's interior vertices along their normal by one distance
     (``polygon.offset_run``; of order ΔA / surface length). ``surgery``: contacts of the
@@ -177,7 +189,8 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
         def target(tag: int) -> float:
             return hs if tag == SURFACE else mesh_size
 
-        poly, _ = resample(repair_polygon(outer, trim_thickness), target, max_area_change)
+        poly, _ = resample(repair_polygon(outer, trim_thickness, trim_face_slope), target,
+                           max_area_change)
         holes = [resample(h, target, max_area_change)[0] for h in holes]
         hole_area = sum(abs(measure(h.points)) for h in holes)
         points, tags = poly.points, poly.edge_tags

@@ -192,9 +192,9 @@ def with_overrides(cfg: Config, overrides: Sequence[str]) -> Config:
     return validate_config(_apply_overrides(config_to_dict(cfg), overrides))
 
 
-#: two-phase keys whose default has changed since they were added: the value a program older
-#: than the key ran with (a saved two-phase config without the key ran with it, not with
-#: today's default)
+#: keys whose default has changed since they were added: the value a program older than the
+#: key ran with (a saved config without the key ran with it, not with today's default; the
+#: ``model`` keys are the two-phase model's, the ``numerics`` ones any model's)
 LEGACY_DEFAULTS = {
     ("model", "yield_weighting"): "volume",       # default grains since 2026-12-04
     ("model", "grain_pressure"): "total",         # default effective since 2026-12-05
@@ -203,6 +203,7 @@ LEGACY_DEFAULTS = {
     #                                               2026-12-07: a config saved since 12-05 has the key
     ("model", "compression_direction"): "facet",  # default normal since 2026-12-05 (evening)
     ("model", "open_top"): "traction_free",       # default hydrostatic since 2026-12-07
+    ("numerics", "remesh_film_trim_face"): "vertical",  # default repose since 2026-12-07
 }
 
 
@@ -210,9 +211,16 @@ def from_saved(data: Any) -> Any:
     """A config this program wrote (config.yaml, run.json's "config"), perhaps by a version
     of before 2026-12-04, whose single material class wrote every law's keys: those of
     another law than its ``rheology`` are dropped (they had no effect). A two-phase config
-    without a key of ``LEGACY_DEFAULTS`` gets the value its program ran with. Other data as is."""
+    without a key of ``LEGACY_DEFAULTS`` gets the value its program ran with, as does any
+    config without one of its ``numerics`` keys. Other data as is."""
     if not isinstance(data, dict):
         return data
+    numerics = data.get("numerics")
+    if isinstance(numerics, dict):
+        missing = {key: value for (section, key), value in LEGACY_DEFAULTS.items()
+                   if section == "numerics" and key not in numerics}
+        if missing:
+            data = {**data, "numerics": {**numerics, **missing}}
     model = data.get("model")
     if isinstance(model, dict) and model.get("name") == "two_phase":
         missing = {key: value for (section, key), value in LEGACY_DEFAULTS.items()

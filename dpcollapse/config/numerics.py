@@ -141,6 +141,11 @@ class NumericsConfig(_Section):
     remesh_film_trim_grains: Number = _f(
         0.0, "", "mu(I): remeshing also cuts off the front film thinner than this many grain "
         "diameters material.grain_diameter (the larger of the two trims; 0: off)", ge=0, le=10)
+    remesh_film_trim_face: Literal["repose", "vertical"] = _f(
+        "repose", "", "The film trim's cut face: at the angle of repose, slope min(mu_s, mu_b) "
+        "(the material's and, on a Coulomb bed, the bed's friction) from the trim's thickness "
+        "delta down to the bed, where the front is slower than sqrt(g delta) (a deposit; a "
+        "faster front is cut vertically), or vertical always (before 2026-12-07)")
     remesh_conserve_area: bool = Field(
         False, strict=True, description="Remeshing puts back the area that untangling a fold, "
         "trimming the film and resampling changed, by moving the free surface along its normal")

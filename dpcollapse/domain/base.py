@@ -3,6 +3,7 @@ config has (``make_domain``)."""
 
 from __future__ import annotations
 
+import math
 from typing import Protocol
 
 
@@ -65,7 +66,9 @@ def make_domain(cfg) -> Domain:
         return MovingDomain(n.remesh_min_angle, cfg.geometry.mesh_size,
                             cfg.geometry.surface_mesh_size, film_trim_thickness(cfg),
                             n.remesh_conserve_area, n.remesh_surgery,
-                            axisymmetric=cfg.geometry.coordinates == "axisymmetric")
+                            axisymmetric=cfg.geometry.coordinates == "axisymmetric",
+                            trim_face_slope=film_face_slope(cfg),
+                            trim_face_speed=film_face_speed(cfg))
     from dpcollapse.domain.fixed import FixedDomain
 
     return FixedDomain()
@@ -77,6 +80,28 @@ def film_trim_thickness(cfg) -> float:
     n = cfg.numerics
     grains = n.remesh_film_trim_grains * getattr(cfg.material, "grain_diameter", 0.0)
     return max(n.remesh_film_trim * cfg.geometry.mesh_size, grains)
+
+
+def film_face_slope(cfg) -> float | None:
+    """The slope μ_r of the film trim's cut face (``numerics.remesh_film_trim_face``): with
+    ``repose``, μ_r = min(μ_s, μ_b), the material's friction tan(material.friction_angle) and,
+    on a Coulomb bed, the bed's tan(boundary.bed_friction_angle) where it is lower (a face at
+    that slope is at the yield of both; ``geometry.film_face``); None (a vertical cut) with
+    ``vertical`` or where μ_r = 0 (no angle of repose)."""
+    if cfg.numerics.remesh_film_trim_face != "repose":
+        return None
+    slope = cfg.material.mu_s
+    if cfg.boundary.bed_condition == "coulomb":
+        slope = min(slope, cfg.boundary.mu_bed)
+    return slope if slope > 0 else None
+
+
+def film_face_speed(cfg) -> float:
+    """√(g δ) [m/s], δ the film trim's thickness (``film_trim_thickness``): the speed at which
+    a face δ high slumps. A thickness front slower than this (``MovingDomain.front_speed``)
+    is not carried by the collapse (a deposit: its film is cut at the angle of repose,
+    ``film_face_slope``); a faster one is the flowing front, cut vertically."""
+    return math.sqrt(cfg.material.gravity * film_trim_thickness(cfg))
 
 
 def refuse_degenerate(domain: Domain, disc, t: float, dt: float, message: str) -> None:

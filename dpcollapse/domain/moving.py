@@ -70,8 +70,18 @@ class MovingDomain:
     def __init__(self, remesh_min_angle: float, mesh_size: float,
                  surface_mesh_size: float | None = None, trim_thickness: float = 0.0,
                  conserve_area: bool = False, surgery: bool = False,
-                 axisymmetric: bool = False):
+                 axisymmetric: bool = False, trim_face_slope: float | None = None,
+                 trim_face_speed: float = math.inf):
         self.remesh_min_angle = remesh_min_angle
+        #: the slope μ_r of the film trim's cut face (``domain.base.film_face_slope``; None:
+        #: vertical), used while the thickness front moves slower than ``trim_face_speed`` =
+        #: √(g δ) [m/s] (a deposit); a faster front (the collapse) is cut vertically
+        self.trim_face_slope, self.trim_face_speed = trim_face_slope, trim_face_speed
+        #: |dx_f/dt| [m/s] of the thickness front over the steps since the last remesh (inf
+        #: until two steps are known), and those steps' first and last (t, x_f)
+        self.front_speed = math.inf
+        self._front_since: tuple[float, float] | None = None
+        self._front_now: tuple[float, float] | None = None
         #: geometry.symmetry axisymmetric: a remesh puts back the body's volume, not the area
         self.axisymmetric = axisymmetric
         self.surgery = surgery
@@ -141,6 +151,7 @@ class MovingDomain:
         velocity, so the kinetic energy of step n−1 is compared with the work up to step n;
         a gain above (1 + ENERGY_TOLERANCE) W means a numerical instability (MeshError)."""
         st, m = state, measures
+        self._track_front(st.t, m.get("thick_front"))
         work = m["gravity_moment"] - st.gravity_moment0
         previous = st.kinetic_energy_previous
         gained = (st.kinetic_energy0 if previous is None else previous) - st.kinetic_energy0
@@ -151,6 +162,18 @@ class MovingDomain:
                 f"({gained:.3g} J/m) exceeds the work of gravity ({work:.3g} J/m); min cell angle "
                 f"{m['min_angle']:.2f}°: the mass is likely thinner than geometry.mesh_size = "
                 f"{self.mesh_size:g} m somewhere — use a finer mesh or a shorter time.end_time")
+
+    def _track_front(self, t: float, x_f: float | None) -> None:
+        """The thickness front's speed over the steps since the last remesh (a window without
+        the remesh's own jumps of x_f): ``front_speed``, for the film trim's cut face."""
+        if x_f is None or not math.isfinite(x_f):
+            return
+        if self._front_since is None:
+            self._front_since = (t, x_f)
+        self._front_now = (t, x_f)
+        (t0, x0), (t1, x1) = self._front_since, self._front_now
+        if t1 > t0:
+            self.front_speed = abs(x1 - x0) / (t1 - t0)
 
     def degenerate(self, disc) -> str | None:
         """Why the current mesh cannot carry a solve (smallest angle below
@@ -179,11 +202,13 @@ class MovingDomain:
         trimmed and the area put back with ``conserve_area`` (``ale.remesh.remesh_domain``).
         MeshError when the boundary is no longer one closed loop."""
         tolerance = REMESH_AREA_TOLERANCE_CONSERVED if self.conserve_area else REMESH_AREA_TOLERANCE
+        slope = self.trim_face_slope if self.front_speed < self.trim_face_speed else None
         try:
             new, _, nverts = remesh_regions(tagged, self.mesh_size, self.surface_mesh_size,
                                             tolerance * area0, self.trim_thickness,
                                             self.conserve_area, self.surgery, self.surgeries,
-                                            axisymmetric=self.axisymmetric)
+                                            axisymmetric=self.axisymmetric,
+                                            trim_face_slope=slope)
         except ValueError as exc:   # the boundary is no longer one closed loop
             raise MeshError(f"mesh degenerate: cannot remesh, {exc}") from exc
         reason = _below_floor(quality(new.mesh)["min_angle"])
@@ -200,6 +225,7 @@ class MovingDomain:
         below ``remesh_min_angle`` (set by a sharp boundary corner) say so: the next remesh
         then waits until the angle drops below REMESH_DEGRADATION × it."""
         after = state.remesh_angle_after = quality(disc.mesh)["min_angle"]
+        self._front_since = None     # the front's speed: over the steps of the new mesh
         for done in self.surgeries[len(self.surgery_events) - self._listed:]:   # this remesh's
             event = {"t": state.t, "step": state.step, "remesh": state.remeshes,
                      "what": done.describe(), "area_change": done.area_change,
