@@ -127,3 +127,12 @@ def test_an_earlier_csv_is_merged_with_its_friction(tmp_path):
     assert float(merged["axi_a2_h0.01"]["mu_s"]) == pytest.approx(0.32, rel=1e-4)
     assert float(merged["axi_a2_h0.01"]["runout_h5mm"]) == pytest.approx(1.8)
     assert merged["axi_dp_a2_h0.01"]["runout_h5mm"] == "nan"
+
+
+def test_the_cone_factor_of_a_cone_is_a_third():
+    """φ = V/(π R² H_f): a cone of height 0.74 r0 holding the column a = 6 (V = π r0² H0)
+    has R/r0 = (3a/0.74)^{1/2} and φ = 1/3; a flat disc of the same R and H_f has φ = 1."""
+    a, h = 6.0, 0.74
+    runout = np.sqrt(3 * a / h) - 1
+    assert law.cone_factor(a, runout, h) == pytest.approx(1 / 3, rel=1e-12)
+    assert law.cone_factor(a, np.sqrt(a / h) - 1, h) == pytest.approx(1.0, rel=1e-12)

@@ -147,6 +147,14 @@ def run_row(run: Path) -> dict:
     }
 
 
+def cone_factor(a: float, runout: float, height: float) -> float:
+    """φ = V/(π R² H_f) of the deposit (a cone: 1/3): its volume V = π r0² H0 over the
+    cylinder of its front radius R = r0 (1 + runout) and its height H_f = height·r0, i.e.
+    φ = a/((1 + runout)² height). The volume ties R to H_f and φ:
+    R/r0 = (a/(φ H_f/r0))^{1/2}, so R/r0 ∝ a^{1/2} exactly when H_f/r0 and φ are constant."""
+    return a / ((1.0 + runout) ** 2 * height)
+
+
 def previous_rows(path: Path) -> list[dict]:
     """The rows of an earlier CSV, typed as ``run_row``'s (the columns it lacks NaN; μ_s
     from ``PREVIOUS_MU_S``)."""
@@ -206,6 +214,9 @@ def main(argv=None) -> None:
     keys = list(new[0])
     rows = sorted(([{k: r.get(k, math.nan) for k in keys} for r in old]) + new,
                   key=lambda r: (r["rheology"], r["mu_s"], r["bed"], r["mesh_size"], r["a"]))
+    for r in rows:
+        r["cone_factor"] = cone_factor(r["a"], r["thickness_runout"], r["height"])
+    keys.append("cone_factor")
     print("| " + " | ".join(keys) + " | Lube |")
     print("| --- " * (len(keys) + 1) + "|")
     for r in rows:
@@ -238,9 +249,10 @@ def main(argv=None) -> None:
     print()
     for (law, bed, name), rs in levels.items():
         rest = [r for r in rs if r["a"] >= FIT_FROM]
-        for key in ("thickness_runout", "mass_runout", *map(threshold_key, THRESHOLDS)):
+        for key in ("thickness_runout", "mass_runout", "height", "cone_factor",
+                    *map(threshold_key, THRESHOLDS)):
             have = [r for r in rest if np.isfinite(r[key])]
-            if len(have) >= 2 and (key in ("thickness_runout", "mass_runout") or have == rest):
+            if len(have) >= 2 and (not key.startswith("runout_h") or have == rest):
                 c, n, se = power_fit([r["a"] for r in have], [r[key] for r in have])
                 fitted = ", ".join(f"{r['a']:g} ({1e3 * r['mesh_size']:g} mm)" for r in have)
                 print(f"{law}, {bed}, {name}, {key}: {c:.3f} a^{n:.3f} ± {se:.3f} (a = {fitted})")
