@@ -266,7 +266,7 @@ def plot(rows, png: Path, planar: Path | None) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.8))
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(13.0, 5.4), width_ratios=(1.25, 1))
     aa = np.geomspace(0.3, 14, 200)
     ax.plot(aa, lube(aa), "k-", lw=1, label="Lube et al. 2004: 1.24a, 1.6a$^{1/2}$ (cylinders)")
     ax.plot(aa, lajeunesse(aa), "k--", lw=1,
@@ -283,8 +283,10 @@ def plot(rows, png: Path, planar: Path | None) -> None:
         if not standard:    # another friction: the same marker, small and dark
             color = "C4" if r["rheology"] == "mu_i" else "k"
         fine = r["mesh_size"] < 0.0099
-        ax.plot(r["a"], r["thickness_runout"], marker, color=color, mfc=color if fine else "none",
-                ms=4.5 if fine or not standard else 8,
+        style = dict(color=color, mfc=color if fine else "none", ms=4.5 if fine or not standard else 8)
+        if r["a"] >= 1:     # the cone factor where H_f has saturated (a = 0.5: the top unmoved)
+            bx.plot(r["a"], r["cone_factor"], marker, **style)
+        ax.plot(r["a"], r["thickness_runout"], marker, **style,
                 label=f"cylinder, {law}" + ("" if standard else f" μ_s = {r['mu_s']:.2f}")
                       + f", {r['bed'].replace('_', ' ')} bed, "
                       f"{'fine (5 / 7.5 mm)' if fine else 'h = 1 cm'}")
@@ -300,8 +302,23 @@ def plot(rows, png: Path, planar: Path | None) -> None:
     ax.set_yscale("log")
     ax.set_xlabel("aspect ratio a = H0/r0 (planar: H0/L0)")
     ax.set_ylabel("runout (r∞ − r0)/r0 at the thickness front")
-    ax.set_title("Cylindrical columns (μ(I), moving mesh) against the laboratory")
+    ax.set_title("(a) Cylindrical columns (moving mesh) against the laboratory", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
+    # (b) the deposit's shape: φ = V/(π R² H_f); the laboratory's fits read with H_f/r0 = 0.74
+    ab = np.geomspace(1.71, 12, 100)   # above the linear regimes
+    bx.plot(ab, cone_factor(ab, lube(ab), 0.74), "k-", lw=1,
+            label="Lube et al.'s fit with H$_f$/r0 = 0.74")
+    ab = np.geomspace(3.01, 12, 100)
+    bx.plot(ab, cone_factor(ab, lajeunesse(ab), 0.74), "k--", lw=1,
+            label="Lajeunesse et al.'s fit with H$_f$/r0 = 0.74")
+    bx.axhline(1 / 3, color="0.6", lw=0.8, ls=":", label="a cone (1/3)")
+    bx.set_xscale("log")
+    bx.set_yscale("log")
+    bx.set_xlabel("aspect ratio a = H0/r0")
+    bx.set_ylabel("cone factor φ = V/(π R² H$_f$) at the thickness front")
+    bx.set_title("(b) The deposit's shape: R/r0 = (a/(φ H$_f$/r0))$^{1/2}$", fontsize=10)
+    bx.legend(fontsize=7, loc="lower left")
+    bx.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     fig.savefig(png, dpi=120)
 
