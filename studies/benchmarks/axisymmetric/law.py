@@ -128,7 +128,7 @@ def run_row(run: Path) -> dict:
         "bed": cfg.get("boundary", {}).get("bed_condition", "no_slip"),
         "rheology": cfg["material"]["rheology"],
         "mu_s": mu_s,
-        "a": h0 / r0,
+        "a": round(h0 / r0, 9),    # 0.3/0.1 is 2.9999999999999996: one key per a
         "mesh_size": g["mesh_size"],
         "status": status,
         "state": state,
