@@ -136,3 +136,18 @@ def test_the_cone_factor_of_a_cone_is_a_third():
     runout = np.sqrt(3 * a / h) - 1
     assert law.cone_factor(a, runout, h) == pytest.approx(1 / 3, rel=1e-12)
     assert law.cone_factor(a, np.sqrt(a / h) - 1, h) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_the_aspect_ratio_is_one_key_per_column(tmp_path):
+    """H0/r0 = 0.3/0.1 is 2.9999999999999996 in floating point: the run's a is rounded, so
+    it meets an earlier CSV's row of a = 3 as the same column."""
+    run = tmp_path / "axi_a3_h0.01"
+    run.mkdir()
+    (run / "config.yaml").write_text(
+        "geometry: {height: 0.3, base_length: 0.1, mesh_size: 0.01}\nmaterial: {rheology: mu_i}\n")
+    (run / "run.json").write_text(json.dumps({"status": "at_rest"}))
+    (run / "diagnostics.csv").write_text(
+        "step,t,front,thick_front,max_height,area,remeshes\n"
+        "0,0.0,0.1,0.1,0.3,1.0,0\n"
+        "600,0.6,0.45,0.43,0.057,1.0,40\n")
+    assert law.run_row(run)["a"] == 3.0
