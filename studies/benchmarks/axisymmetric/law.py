@@ -79,13 +79,12 @@ def threshold_key(h: float) -> str:
 def deposit_fronts(run: Path, r0: float, step: int, thresholds=THRESHOLDS) -> dict:
     """(r_f(h_f) − r0)/r0 of the deposit in the run's checkpoint at each thickness h_f (the
     outer boundary loop's thickness front); NaN unless the checkpoint is of ``step``."""
-    from dpcollapse.geometry.polygon import chain_loops
-    from dpcollapse.scenes.base import thickness_front
-
     out = {threshold_key(h): math.nan for h in thresholds}
     path = run / "checkpoint.npz"
     if not path.exists():
         return out
+    from dpcollapse.geometry.polygon import chain_loops  # (dolfinx: only when there is one)
+    from dpcollapse.scenes.base import thickness_front
     with np.load(path, allow_pickle=False) as z:
         if json.loads(str(z["state"])).get("step") != step:
             return out
