@@ -279,8 +279,8 @@ def plot(rows, png: Path, planar: Path | None) -> None:
         else:
             color = "C7" if r["bed"] == "no_slip" else "C1"
             marker = "D" if r["bed"] == "no_slip" else "s"
-        if not standard:    # another friction: the same marker, small and dark
-            color = "C4" if r["rheology"] == "mu_i" else "k"
+        if not standard:    # another friction: the same marker, small, a colour per μ_s
+            color = "C4" if r["rheology"] == "mu_i" else ("C9" if r["mu_s"] < 0.4 else "k")
         fine = r["mesh_size"] < 0.0099
         style = dict(color=color, mfc=color if fine else "none", ms=4.5 if fine or not standard else 8)
         if r["a"] >= 1:     # the cone factor where H_f has saturated (a = 0.5: the top unmoved)
