@@ -72,3 +72,82 @@ def test_a_run_not_at_rest_is_read_where_it_settled(tmp_path):
     row = law.run_row(run)
     assert row["state"] == "settled" and row["t"] == pytest.approx(0.4)
     assert row["thickness_runout"] == pytest.approx(0.6)
+
+
+def _deposit_checkpoint(run, step):
+    """A trapezoidal deposit r ∈ [0, 0.3], top 0.05 m on r ≤ 0.1, surface falling linearly
+    to the toe at r = 0.3 (h(r) = 0.05 (0.3 − r)/0.2), as the run's checkpoint at ``step``."""
+    x = np.array([[0.0, 0.0], [0.3, 0.0], [0.1, 0.05], [0.0, 0.05]])
+    edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])
+    np.savez(run / "checkpoint.npz", mesh_x=x, mesh_edges=edges,
+             mesh_edge_tags=np.array([1, 2, 2, 3]), state=np.array(json.dumps({"step": step})))
+
+
+def test_the_deposit_is_read_again_at_fixed_thicknesses(tmp_path):
+    """The thickness front at each of THRESHOLDS, from the checkpoint of the step the run
+    stopped at (exact on the polygon: r_f = 0.3 − 4 h_f); NaN from a checkpoint of another
+    step."""
+    run = tmp_path / "axi_a1_h0.01"
+    run.mkdir()
+    _deposit_checkpoint(run, 500)
+    fronts = law.deposit_fronts(run, 0.1, 500)
+    assert list(fronts) == ["runout_h2.5mm", "runout_h5mm", "runout_h10mm", "runout_h20mm"]
+    expected = [(0.3 - 4 * h - 0.1) / 0.1 for h in law.THRESHOLDS]
+    assert list(fronts.values()) == pytest.approx(expected, rel=1e-12)
+    assert all(np.isnan(v) for v in law.deposit_fronts(run, 0.1, 499).values())
+
+
+def test_an_earlier_csv_is_merged_with_its_friction(tmp_path):
+    """Rows of an earlier CSV (run directories gone) typed as run_row's, μ_s from the law
+    report's configs, the fixed-thickness fronts NaN; a run given again replaces its row."""
+    old = tmp_path / "old.csv"
+    old.write_text("run,bed,rheology,a,mesh_size,status,state,t,thickness_runout,steps\n"
+                   "axi_a2_h0.01,no_slip,mu_i,2,0.01,at_rest,final,0.58,2.38,635\n"
+                   "axi_dp_a2_h0.01,no_slip,drucker_prager,2,0.01,at_rest,final,0.48,1.775,503\n")
+    rows = law.previous_rows(old)
+    assert [r["mu_s"] for r in rows] == [0.32, 0.477]
+    assert rows[0]["thickness_runout"] == 2.38 and rows[0]["steps"] == 635
+    assert np.isnan(rows[1]["runout_h5mm"])
+    run = tmp_path / "axi_a2_h0.01"
+    run.mkdir()
+    (run / "config.yaml").write_text(
+        "geometry: {height: 0.2, base_length: 0.1, mesh_size: 0.01}\n"
+        "material: {rheology: mu_i, friction_angle: 17.7447}\n")
+    (run / "run.json").write_text(json.dumps({"status": "at_rest"}))
+    (run / "diagnostics.csv").write_text(
+        "step,t,front,thick_front,max_height,area,remeshes\n"
+        "0,0.0,0.1,0.1,0.2,1.0,0\n"
+        "500,0.5,0.36,0.34,0.055,1.0,40\n")
+    _deposit_checkpoint(run, 500)
+    out = tmp_path / "law.csv"
+    law.main([str(run), "--previous", str(old), "--csv", str(out)])
+    import csv
+    merged = {r["run"]: r for r in csv.DictReader(out.open())}
+    assert merged["axi_a2_h0.01"]["thickness_runout"] == "2.4"     # the new run's row
+    assert float(merged["axi_a2_h0.01"]["mu_s"]) == pytest.approx(0.32, rel=1e-4)
+    assert float(merged["axi_a2_h0.01"]["runout_h5mm"]) == pytest.approx(1.8)
+    assert merged["axi_dp_a2_h0.01"]["runout_h5mm"] == "nan"
+
+
+def test_the_cone_factor_of_a_cone_is_a_third():
+    """φ = V/(π R² H_f): a cone of height 0.74 r0 holding the column a = 6 (V = π r0² H0)
+    has R/r0 = (3a/0.74)^{1/2} and φ = 1/3; a flat disc of the same R and H_f has φ = 1."""
+    a, h = 6.0, 0.74
+    runout = np.sqrt(3 * a / h) - 1
+    assert law.cone_factor(a, runout, h) == pytest.approx(1 / 3, rel=1e-12)
+    assert law.cone_factor(a, np.sqrt(a / h) - 1, h) == pytest.approx(1.0, rel=1e-12)
+
+
+def test_the_aspect_ratio_is_one_key_per_column(tmp_path):
+    """H0/r0 = 0.3/0.1 is 2.9999999999999996 in floating point: the run's a is rounded, so
+    it meets an earlier CSV's row of a = 3 as the same column."""
+    run = tmp_path / "axi_a3_h0.01"
+    run.mkdir()
+    (run / "config.yaml").write_text(
+        "geometry: {height: 0.3, base_length: 0.1, mesh_size: 0.01}\nmaterial: {rheology: mu_i}\n")
+    (run / "run.json").write_text(json.dumps({"status": "at_rest"}))
+    (run / "diagnostics.csv").write_text(
+        "step,t,front,thick_front,max_height,area,remeshes\n"
+        "0,0.0,0.1,0.1,0.3,1.0,0\n"
+        "600,0.6,0.45,0.43,0.057,1.0,40\n")
+    assert law.run_row(run)["a"] == 3.0
