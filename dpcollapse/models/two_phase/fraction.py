@@ -36,13 +36,16 @@ from petsc4py import PETSc
 
 from dpcollapse import compat
 from dpcollapse.forms.two_phase import (
+    INTERFACE_FLUXES,
     compression_weights,
+    facet_volume_flux,
     fraction_flux,
     outflow_rate,
     outflow_volume_rate,
 )
 from dpcollapse.geometry.regions import cell_triangles
 from dpcollapse.models.two_phase.fluxes import StepFluxes
+from dpcollapse.models.two_phase.geometric_flux import GeometricFluxes
 from dpcollapse.models.two_phase.layer_normal import LayerNormal
 from dpcollapse.models.two_phase.remap import remap
 from dpcollapse.rheology.coordinates import PLANAR
@@ -59,8 +62,14 @@ class VolumeFraction:
 
     def __init__(self, mesh, courant: float, compression: float, name: str = "volume_fraction",
                  direction: str = "normal", coordinates=PLANAR, strips: tuple[float, int] | None = None,
-                 thin_layer_cells: float = 2.0, speed: str = "facet"):
+                 thin_layer_cells: float = 2.0, speed: str = "facet",
+                 interface_flux: str = "compression"):
         self.mesh, self.comm = mesh, mesh.comm
+        if interface_flux not in INTERFACE_FLUXES:
+            raise ValueError(f"interface flux {interface_flux!r}: one of {', '.join(INTERFACE_FLUXES)}")
+        #: "compression" (upwind + algebraic compression) or "geometric" (``geometric_flux``)
+        self.interface_flux = interface_flux
+        self._geometric = None
         #: planar (|K| the area, per unit depth) or axisymmetric (|K| = ∫_K 2πr dx)
         self.coordinates = coordinates
         self.courant, self.compression = courant, compression
@@ -104,6 +113,9 @@ class VolumeFraction:
 
     def bind(self, u) -> None:
         """Build the flux and rate forms for the velocity ``u``."""
+        if self.interface_flux == "geometric":
+            self._bind_geometric(u)
+            return
         mesh, C = self.mesh, self.compression
         v, trial = ufl.TestFunction(self.S0), ufl.TrialFunction(self.S0)
         n = ufl.FacetNormal(mesh)
@@ -128,6 +140,48 @@ class VolumeFraction:
         self._boundary = fem.form(outflow_volume_rate(v, u, n, ds))
         self._b = compat.create_vector(self._rate)
         self._u = u
+
+    def _bind_geometric(self, u) -> None:
+        """The geometric interface flux (``geometric_flux``): the net facet fluxes' matrix,
+        the local cells' geometry in dof order, the vertex average c̄ for the normals."""
+        mesh = self.mesh
+        v, trial = ufl.TestFunction(self.S0), ufl.TrialFunction(self.S0)
+        n = ufl.FacetNormal(mesh)
+        dS, ds = self._measure(ufl.dS), self._measure(ufl.ds)
+        if self._vertex is None:
+            self._vertex = _VertexAverage(self.c)
+        dofs = compat.cell_dofs(self.S0)[:, 0]
+        n_local = len(dofs)
+        triangles = np.empty((n_local, 3, 2))
+        triangles[dofs] = cell_triangles(mesh, owned_only=False)
+        nodes = np.empty((n_local, 3), dtype=np.int64)
+        nodes[dofs] = compat.geometry_dofmap(mesh)[:n_local, :3]
+        P1 = self._vertex.function.function_space
+        p1 = np.empty((n_local, 3), dtype=np.int64)
+        p1[dofs] = compat.cell_dofs(P1)[:n_local, :3]
+        self._vertex_dofs = p1
+        self._vertex_points = P1.tabulate_dof_coordinates()[:, :2][p1]
+        self._ratios = (fem.Function(self.S0), fem.Function(self.S0))
+        volume = fem.Function(self.S0)
+        volume.x.array[:self._n] = self.volume
+        volume.x.scatter_forward()
+        self._geometric = GeometricFluxes(fem.form(facet_volume_flux(trial, u, v, n, dS)),
+                                          self.S0.dofmap.index_map, triangles, nodes,
+                                          volume.x.array.copy(), self._scatter_ratios)
+        self._rate = fem.form(outflow_rate(u, v, n, dS, ds, 0.0))
+        self._divergence = fem.form(self.coordinates.divergence(u) * v * self._measure(ufl.dx))
+        self._boundary = fem.form(outflow_volume_rate(v, u, n, ds))
+        self._b = compat.create_vector(self._rate)
+        self._u = u
+
+    def _scatter_ratios(self, r_plus: np.ndarray, r_minus: np.ndarray):
+        """The limiter's R± of the owned cells onto every local cell (ghosts updated)."""
+        out = []
+        for f, values in zip(self._ratios, (r_plus, r_minus)):
+            f.x.array[:self._n] = values
+            f.x.scatter_forward()
+            out.append(f.x.array.copy())
+        return out
 
     def watch_outflow(self, ds_out) -> None:
         """Count the material leaving through the sides of the measure ``ds_out`` (after
@@ -197,13 +251,20 @@ class VolumeFraction:
             steps = max(1, math.ceil(dt * rate / self.courant - 1e-12)) if rate > 0 else 1
         h = dt / steps
         self.work.x.array[:] = self.c.x.array
+        geometric = self._geometric
         if self._vertex is not None:
             self._vertex.update()       # the interface normal of cⁿ, fixed over the sub-steps
         if self._layer is not None:
             self._layer.update()        # the thin layers' normals of cⁿ, likewise
-        self._fluxes.assemble()
+        if geometric is not None:
+            vertex = self._vertex.function.x.array
+            geometric.set_normals(self._vertex_points, vertex[self._vertex_dofs])
+            geometric.assemble()
+        else:
+            self._fluxes.assemble()
         weights = None if self._outflow is None else self._assemble(self._outflow).copy()
         others = self._assemble(self._boundary).copy()     # every side, less the outflow's
+        boundary = others.copy()                             # every side (geometric's upwind)
         if weights is not None:
             others -= weights
         out = escaped = 0.0
@@ -213,7 +274,10 @@ class VolumeFraction:
                 local = float(weights @ own)
                 out += h * self.comm.allreduce(local, op=MPI.SUM)
             escaped += h * self.comm.allreduce(float(others @ own), op=MPI.SUM)
-            residual = self._fluxes.residual(self.work.x.array)
+            if geometric is not None:
+                residual = geometric.residual(self.work.x.array, h, boundary)
+            else:
+                residual = self._fluxes.residual(self.work.x.array)
             self.work.x.array[:self._n] -= h * residual / self.volume
             self.work.x.scatter_forward()
         self.pending = self.work.x.array.copy()
@@ -249,6 +313,8 @@ class VolumeFraction:
             self._b.destroy()
         if self._fluxes is not None:
             self._fluxes.destroy()
+        if self._geometric is not None:
+            self._geometric.destroy()
 
 
 class _VertexAverage:
