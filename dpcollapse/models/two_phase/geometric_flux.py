@@ -171,9 +171,15 @@ class GeometricFluxes:
         self.normal, self.has_normal = interface_normals(vertex_points, vertex_values)
 
     def _share(self, donor, apex, c, s, mixed, moved):
-        rho = np.clip(moved / self.volume[donor], 0.0, 1.0)
-        return strip_fraction(self.triangles[donor], apex, self.normal[donor], s[donor],
-                              c[donor], rho, mixed[donor])
+        """g of the pairs whose ``donor`` is mixed (c elsewhere: the upwind value)."""
+        g = c[donor]
+        at = np.nonzero(mixed[donor])[0]
+        if len(at):
+            d = donor[at]
+            rho = np.clip(moved[at] / self.volume[d], 0.0, 1.0)
+            g[at] = strip_fraction(self.triangles[d], apex[at], self.normal[d], s[d], c[d], rho,
+                                   np.ones(len(at), dtype=bool))
+        return g
 
     def high_order(self, c: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray]:
         """(L, G) of the pairs: the upwind and the geometric flux rates i → j."""
@@ -183,8 +189,10 @@ class GeometricFluxes:
         if not self.reconstruct:
             return low, low
         mixed = (c > MIXED) & (c < 1.0 - MIXED) & self.has_normal
-        p = np.einsum("nkd,nd->nk", self.triangles, self.normal)
-        s = plane_constant(p, c)
+        cut = np.nonzero(mixed)[0]
+        s = np.zeros(len(c))
+        p = np.einsum("nkd,nd->nk", self.triangles[cut], self.normal[cut])
+        s[cut] = plane_constant(p, c[cut])
         moved = np.abs(flux) * h
         g_i = self._share(rows, apex_i, c, s, mixed, moved)
         g_j = self._share(columns, apex_j, c, s, mixed, moved)
