@@ -178,6 +178,12 @@ class TwoPhaseModel(_Section):
         "swept strip of the donor cell, limited by flux-corrected transport to keep c in [0, 1]; "
         "the compression keys are then unused; docs/model.md, "
         "docs/benchmarks/2026-12-07-two-phase-geometric-flux.md)")
+    interface_normal: Literal["gradient", "height_function"] = _f(
+        "gradient", "", "interface_flux geometric: the interface normal of a mixed cell, gradient "
+        "(-grad of c averaged to the vertices, Youngs) or height_function (as gradient, but in a "
+        "layer thinner than thin_layer_cells the normal (-h', 1) of its height function h(x) = "
+        "column integral of c: a tongue on the bed thinner than a cell stays a layer instead of "
+        "breaking into blobs; docs/benchmarks/2026-12-07-two-phase-geometric-flux.md)")
     thin_layer_cells: Number = _f(
         2.0, "", "compression_direction layer_normal / skip_layers: a layer whose thickness (the column "
         "integral of c over a strip of the fine cell's width) is below this many fine cells is thin "

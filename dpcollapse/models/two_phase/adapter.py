@@ -107,7 +107,8 @@ def make_flow(tagged: TaggedMesh, cfg, vessel: Container) -> TwoPhaseFlow:
                        model.grain_pressure, model.cut_cell_pressure, model.inertia,
                        model.compression_direction, strips(cfg, vessel), model.open_top,
                        model.thin_layer_cells, model.compression_speed,
-                       interface_flux=model.interface_flux)
+                       interface_flux=model.interface_flux,
+                       interface_normal=model.interface_normal)
     return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
 
 

@@ -63,12 +63,15 @@ class VolumeFraction:
     def __init__(self, mesh, courant: float, compression: float, name: str = "volume_fraction",
                  direction: str = "normal", coordinates=PLANAR, strips: tuple[float, int] | None = None,
                  thin_layer_cells: float = 2.0, speed: str = "facet",
-                 interface_flux: str = "compression"):
+                 interface_flux: str = "compression", interface_normal: str = "gradient"):
         self.mesh, self.comm = mesh, mesh.comm
         if interface_flux not in INTERFACE_FLUXES:
             raise ValueError(f"interface flux {interface_flux!r}: one of {', '.join(INTERFACE_FLUXES)}")
         #: "compression" (upwind + algebraic compression) or "geometric" (``geometric_flux``)
         self.interface_flux = interface_flux
+        #: the geometric flux's normal: "gradient" (−∇c̄) or "height_function" (in a layer
+        #: thinner than ``thin_layer_cells``, the layer's own (−h', 1), ``layer_normal``)
+        self.interface_normal = interface_normal
         self._geometric = None
         #: planar (|K| the area, per unit depth) or axisymmetric (|K| = ∫_K 2πr dx)
         self.coordinates = coordinates
@@ -165,6 +168,11 @@ class VolumeFraction:
         volume = fem.Function(self.S0)
         volume.x.array[:self._n] = self.volume
         volume.x.scatter_forward()
+        if self.interface_normal == "height_function":
+            if self.strips is None:
+                raise ValueError("interface normal 'height_function' needs the box's strips")
+            if self._layer is None:
+                self._layer = LayerNormal(self.c, *self.strips, self.thin_layer_cells)
         self._geometric = GeometricFluxes(fem.form(facet_volume_flux(trial, u, v, n, dS)),
                                           self.S0.dofmap.index_map, triangles, nodes,
                                           volume.x.array.copy(), self._scatter_ratios)
@@ -173,6 +181,16 @@ class VolumeFraction:
         self._boundary = fem.form(outflow_volume_rate(v, u, n, ds))
         self._b = compat.create_vector(self._rate)
         self._u = u
+
+    def _layer_normals(self, geometric) -> None:
+        """In the thin layers' cells (owned and ghosts) the height function's normal (−h', 1)
+        (out of the grains of a layer on the bed) in place of −∇c̄'s."""
+        layer = self._layer
+        cells = layer._scalar_dofs
+        thin = layer.thin.x.array[cells] > 0.5
+        normal = layer.normal.x.array.reshape(-1, 2)[layer._vector_dofs]
+        geometric.normal[cells[thin]] = normal[thin]
+        geometric.has_normal[cells[thin]] = True
 
     def _scatter_ratios(self, r_plus: np.ndarray, r_minus: np.ndarray):
         """The limiter's R± of the owned cells onto every local cell (ghosts updated)."""
@@ -259,6 +277,8 @@ class VolumeFraction:
         if geometric is not None:
             vertex = self._vertex.function.x.array
             geometric.set_normals(self._vertex_points, vertex[self._vertex_dofs])
+            if self._layer is not None:
+                self._layer_normals(geometric)
             geometric.assemble()
         else:
             self._fluxes.assemble()
