@@ -184,11 +184,6 @@ class TwoPhaseModel(_Section):
         "layer thinner than thin_layer_cells the normal (-h', 1) of its height function h(x) = "
         "column integral of c: a tongue on the bed thinner than a cell stays a layer instead of "
         "breaking into blobs; docs/benchmarks/2026-12-07-two-phase-geometric-flux.md)")
-    interface_overfill: bool = _f(
-        False, "", "interface_flux geometric: carry a cell's c above 1 (the discrete divergence of "
-        "the velocity fills converging cells past 1, a weightless excess in the flow) on to its "
-        "neighbours with the upwind flux |Phi_f| ([c_K - 1]+ - [c_nb - 1]+), as the compression "
-        "does (docs/model.md)")
     thin_layer_cells: Number = _f(
         2.0, "", "compression_direction layer_normal / skip_layers: a layer whose thickness (the column "
         "integral of c over a strip of the fine cell's width) is below this many fine cells is thin "

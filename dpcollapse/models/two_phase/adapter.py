@@ -108,8 +108,7 @@ def make_flow(tagged: TaggedMesh, cfg, vessel: Container) -> TwoPhaseFlow:
                        model.compression_direction, strips(cfg, vessel), model.open_top,
                        model.thin_layer_cells, model.compression_speed,
                        interface_flux=model.interface_flux,
-                       interface_normal=model.interface_normal,
-                       interface_overfill=model.interface_overfill)
+                       interface_normal=model.interface_normal)
     return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
 
 

@@ -85,7 +85,6 @@ class LightFluid:
     compression_speed: str = "facet"  # |u·n| or |u| (forms.two_phase.compression_speed)
     interface_flux: str = "compression"  # or geometric (models.two_phase.geometric_flux)
     interface_normal: str = "gradient"  # geometric's normal: gradient or height_function
-    interface_overfill: bool = False  # geometric's flux of c above 1 to the neighbours
 
 
 #: the snapshot field of cⁿ⁻¹ (``model.inertia: energy``, ``mean``)
@@ -137,8 +136,7 @@ class TwoPhaseFlow(RegularizedFlow):
                                 thin_layer_cells=self.light.thin_layer_cells,
                                 speed=self.light.compression_speed,
                                 interface_flux=self.light.interface_flux,
-                                interface_normal=self.light.interface_normal,
-                                overfill=self.light.interface_overfill)
+                                interface_normal=self.light.interface_normal)
         tracer.bind(ufl.split(self.solution)[0])
         self.tracers[name] = tracer
         return tracer
@@ -153,8 +151,7 @@ class TwoPhaseFlow(RegularizedFlow):
                                        strips=light.strips, thin_layer_cells=light.thin_layer_cells,
                                        speed=light.compression_speed,
                                        interface_flux=light.interface_flux,
-                                       interface_normal=light.interface_normal,
-                                       overfill=light.interface_overfill)
+                                       interface_normal=light.interface_normal)
         c = self.fraction.c
         clamped = ufl.min_value(ufl.max_value(c, 0.0), 1.0)
         (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)

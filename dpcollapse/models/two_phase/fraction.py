@@ -63,8 +63,7 @@ class VolumeFraction:
     def __init__(self, mesh, courant: float, compression: float, name: str = "volume_fraction",
                  direction: str = "normal", coordinates=PLANAR, strips: tuple[float, int] | None = None,
                  thin_layer_cells: float = 2.0, speed: str = "facet",
-                 interface_flux: str = "compression", interface_normal: str = "gradient",
-                 overfill: bool = False):
+                 interface_flux: str = "compression", interface_normal: str = "gradient"):
         self.mesh, self.comm = mesh, mesh.comm
         if interface_flux not in INTERFACE_FLUXES:
             raise ValueError(f"interface flux {interface_flux!r}: one of {', '.join(INTERFACE_FLUXES)}")
@@ -73,7 +72,6 @@ class VolumeFraction:
         #: the geometric flux's normal: "gradient" (−∇c̄) or "height_function" (in a layer
         #: thinner than ``thin_layer_cells``, the layer's own (−h', 1), ``layer_normal``)
         self.interface_normal = interface_normal
-        self.overfill = overfill     # the geometric flux's overfill flux (``geometric_flux``)
         self._geometric = None
         #: planar (|K| the area, per unit depth) or axisymmetric (|K| = ∫_K 2πr dx)
         self.coordinates = coordinates
@@ -178,7 +176,6 @@ class VolumeFraction:
         self._geometric = GeometricFluxes(fem.form(facet_volume_flux(trial, u, v, n, dS)),
                                           self.S0.dofmap.index_map, triangles, nodes,
                                           volume.x.array.copy(), self._scatter_ratios)
-        self._geometric.overfill = self.overfill
         self._rate = fem.form(outflow_rate(u, v, n, dS, ds, 0.0))
         self._divergence = fem.form(self.coordinates.divergence(u) * v * self._measure(ufl.dx))
         self._boundary = fem.form(outflow_volume_rate(v, u, n, ds))

@@ -16,15 +16,6 @@ with A(T, n, s) the area of T below the line (``area_below``): the granular shar
 swept strip (the strip normal to the facet; the tangential velocity is not traced). A cell
 that is not mixed, or whose ∇c̄ vanishes, has g = c_D (the upwind flux).
 
-Overfill: the discrete divergence of the P2 velocity lets the upwind flux fill a converging
-cell above 1 (the flow's forms clamp c to 1, so the excess is weightless there); with
-``overfill`` the upwind flux carries it on towards the interface, as the compression's
-c_K (1 − c_nb) does for c > 1::
-
-    L_f += |Φ_f| (e_K − e_nb),   e = [c − 1]⁺
-
-(single-valued, zero where neither cell is over 1).
-
 Bounds: the fluxes are limited by Zalesak's flux-corrected transport towards the upwind
 flux L_f = Φ_f⁺ c_i − Φ_f⁻ c_j: F_f = L_f + α_f (G_f − L_f) with α_f ∈ [0, 1] the largest
 that keeps every cell within [0, 1] given the upwind update (``limit``). Each facet's flux is
@@ -152,8 +143,6 @@ class GeometricFluxes:
         self.normal = np.zeros((self._n_local, 2))
         self.has_normal = np.zeros(self._n_local, dtype=bool)
         self.reconstruct = True     # False: g = c everywhere (the upwind flux, for checks)
-        #: the overfill flux |Φ_f| (e_K − e_nb), e = [c − 1]⁺ (``model.interface_overfill``)
-        self.overfill = False
         self._pairs = None
 
     def assemble(self) -> None:
@@ -197,9 +186,6 @@ class GeometricFluxes:
         rows, columns, flux, apex_i, apex_j = self._pairs
         plus, minus = np.maximum(flux, 0.0), np.maximum(-flux, 0.0)
         low = plus * c[rows] - minus * c[columns]
-        if self.overfill:
-            excess = np.maximum(c - 1.0, 0.0)
-            low = low + np.abs(flux) * (excess[rows] - excess[columns])
         if not self.reconstruct:
             return low, low
         mixed = (c > MIXED) & (c < 1.0 - MIXED) & self.has_normal
