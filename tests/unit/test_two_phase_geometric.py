@@ -88,8 +88,8 @@ def test_a_square_stays_sharp_and_its_area_is_kept(flow, steps):
     32 × 32 cells: ∫ c conserved to round-off, c in [0, 1], and the mixed cells (0.01 < c <
     0.99) cover at most a band two cells wide along the perimeter (the rotation crosses the
     box's sides: what a haze takes out there is counted, ``escaped_volume``), 2 H × 1 m (measured:
-    about 0.4 of it; the compression C = 1 `normal` 2.3 / 3.6 times it, plain upwind — the
-    reconstruction disabled — 3.5 / 7.2 times); after the turn the L1 distance to the
+    0.38 of it; the compression C = 1 `normal` 2.3 / 3.6 times it, plain upwind — the
+    reconstruction disabled — 3.4 / 7.2 times); after the turn the L1 distance to the
     initial square is below 0.2 of its area (measured 0.14; compression 0.48, upwind 1.13)."""
     mesh = _box(MPI.COMM_WORLD)
     vf, area0, (lo, hi) = _advect(mesh, flow, SQUARE, steps, 0.01)
