@@ -185,7 +185,8 @@ class TwoPhaseModel(_Section):
         "column integral of c: a tongue on the bed thinner than a cell stays a layer instead of "
         "breaking into blobs; docs/benchmarks/2026-12-07-two-phase-geometric-flux.md)")
     thin_layer_cells: Number = _f(
-        2.0, "", "compression_direction layer_normal / skip_layers: a layer whose thickness (the column "
+        2.0, "", "compression_direction layer_normal / skip_layers (and interface_normal "
+        "height_function): a layer whose thickness (the column "
         "integral of c over a strip of the fine cell's width) is below this many fine cells is thin "
         "(2: the vertex average of c spans a cell on either side)", gt=0, le=20)
     open_top: Literal["traction_free", "hydrostatic"] = _f(
