@@ -12,6 +12,10 @@ advected with the sub-step count of c.
   ("skip_layers") a layer thinner than two cells takes the normal of its height function
   (no compression) instead (``layer_normal``, on the box's ``strips``). Under MPI
   the ghost values of c are updated by a forward scatter after every sub-step.
+* ``interface_flux`` "geometric" (``model.interface_flux``): the sub-step's fluxes are the
+  PLIC fluxes of ``geometric_flux`` instead (a straight interface per mixed cell, normal from
+  ∇c̄ of cⁿ or, ``interface_normal`` "height_function", the thin layers' (−h', 1); the donor
+  strip's granular share; Zalesak-limited to [0, 1]); the boundary keeps the upwind outflow.
 * What leaves: the upwind flux takes (u·n)⁺ c out through every side of the box, so
   ∫ c dx + ``outflow_volume`` (the watched outflow sides, a silo's orifice) +
   ``escaped_volume`` (every other side: the open top a haze of c rises through) is
