@@ -170,8 +170,23 @@ class TwoPhaseModel(_Section):
         "|phi_f|/|S_f|: none across an interface the flow runs along) or full |u| (the compression "
         "velocity C |u| n_i: also across the top of a layer sheared along the bed; "
         "docs/benchmarks/2026-12-07-two-phase-thin-front.md)")
+    interface_flux: Literal["compression", "geometric"] = _f(
+        "compression", "", "How c crosses the interface: compression (upwind flux plus the "
+        "algebraic compression of model.compression, compression_direction, compression_speed) "
+        "or geometric (PLIC: in each mixed cell a straight interface normal to the gradient of c "
+        "averaged to the vertices holding c|K|; through each facet the granular share of the "
+        "swept strip of the donor cell, limited by flux-corrected transport to keep c in [0, 1]; "
+        "the compression keys are then unused; docs/model.md, "
+        "docs/benchmarks/2026-12-07-two-phase-geometric-flux.md)")
+    interface_normal: Literal["gradient", "height_function"] = _f(
+        "gradient", "", "interface_flux geometric: the interface normal of a mixed cell, gradient "
+        "(-grad of c averaged to the vertices, Youngs) or height_function (as gradient, but in a "
+        "layer thinner than thin_layer_cells the normal (-h', 1) of its height function h(x) = "
+        "column integral of c: a tongue on the bed thinner than a cell stays a layer instead of "
+        "breaking into blobs; docs/benchmarks/2026-12-07-two-phase-geometric-flux.md)")
     thin_layer_cells: Number = _f(
-        2.0, "", "compression_direction layer_normal / skip_layers: a layer whose thickness (the column "
+        2.0, "", "compression_direction layer_normal / skip_layers (and interface_normal "
+        "height_function): a layer whose thickness (the column "
         "integral of c over a strip of the fine cell's width) is below this many fine cells is thin "
         "(2: the vertex average of c spans a cell on either side)", gt=0, le=20)
     open_top: Literal["traction_free", "hydrostatic"] = _f(

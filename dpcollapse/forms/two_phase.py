@@ -186,6 +186,19 @@ def fraction_flux(c, u, v, n, dS, ds):
     return flux * (v('+') - v('-')) * dS + _positive(ufl.dot(u, n)) * c * v * ds
 
 
+def facet_volume_flux(c, u, v, n, dS):
+    """∫ (u·n⁺)(c⁻ v⁺ − c⁺ v⁻) dS with c the DG0 trial function: the matrix whose entry
+    (K, K') of an interior facet is Φ = ∫_f u·n_K ds, the net volume rate from K into K'
+    (and (K', K) its exact negative, from the same kernel): the facet fluxes of the
+    geometric interface flux (``models.two_phase.geometric_flux``)."""
+    un = ufl.dot(u('+'), n('+'))
+    return un * (c('-') * v('+') - c('+') * v('-')) * dS
+
+
+#: how c crosses the interface (``model.interface_flux``)
+INTERFACE_FLUXES = ("compression", "geometric")
+
+
 def outflow_volume_rate(c, u, n, ds_out):
     """∫_out (u·n)⁺ c ds: the volume of material leaving through the outflow sides per unit
     time and depth [m²/s] (the boundary part of ``fraction_flux`` restricted to them)."""

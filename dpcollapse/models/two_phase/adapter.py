@@ -106,7 +106,9 @@ def make_flow(tagged: TaggedMesh, cfg, vessel: Container) -> TwoPhaseFlow:
                        model.grad_div, model.viscosity_average, model.yield_weighting,
                        model.grain_pressure, model.cut_cell_pressure, model.inertia,
                        model.compression_direction, strips(cfg, vessel), model.open_top,
-                       model.thin_layer_cells, model.compression_speed)
+                       model.thin_layer_cells, model.compression_speed,
+                       interface_flux=model.interface_flux,
+                       interface_normal=model.interface_normal)
     return TwoPhaseFlow(tagged, params, picard_settings(cfg), light)
 
 

@@ -83,6 +83,8 @@ class LightFluid:
     open_top: str = "hydrostatic"  # the open top's traction: hydrostatic or traction_free
     thin_layer_cells: float = 2.0  # a layer thinner than this many cells: layer_normal's
     compression_speed: str = "facet"  # |u·n| or |u| (forms.two_phase.compression_speed)
+    interface_flux: str = "compression"  # or geometric (models.two_phase.geometric_flux)
+    interface_normal: str = "gradient"  # geometric's normal: gradient or height_function
 
 
 #: the snapshot field of cⁿ⁻¹ (``model.inertia: energy``, ``mean``)
@@ -132,7 +134,9 @@ class TwoPhaseFlow(RegularizedFlow):
                                 direction=self.light.compression_direction,
                                 coordinates=self.params.coordinates, strips=self.light.strips,
                                 thin_layer_cells=self.light.thin_layer_cells,
-                                speed=self.light.compression_speed)
+                                speed=self.light.compression_speed,
+                                interface_flux=self.light.interface_flux,
+                                interface_normal=self.light.interface_normal)
         tracer.bind(ufl.split(self.solution)[0])
         self.tracers[name] = tracer
         return tracer
@@ -145,7 +149,9 @@ class TwoPhaseFlow(RegularizedFlow):
         self.fraction = VolumeFraction(mesh, light.courant, light.compression,
                                        direction=light.compression_direction, coordinates=coords,
                                        strips=light.strips, thin_layer_cells=light.thin_layer_cells,
-                                       speed=light.compression_speed)
+                                       speed=light.compression_speed,
+                                       interface_flux=light.interface_flux,
+                                       interface_normal=light.interface_normal)
         c = self.fraction.c
         clamped = ufl.min_value(ufl.max_value(c, 0.0), 1.0)
         (u, pr), (v, q) = ufl.TrialFunctions(self.W), ufl.TestFunctions(self.W)

@@ -12,6 +12,10 @@ advected with the sub-step count of c.
   ("skip_layers") a layer thinner than two cells takes the normal of its height function
   (no compression) instead (``layer_normal``, on the box's ``strips``). Under MPI
   the ghost values of c are updated by a forward scatter after every sub-step.
+* ``interface_flux`` "geometric" (``model.interface_flux``): the sub-step's fluxes are the
+  PLIC fluxes of ``geometric_flux`` instead (a straight interface per mixed cell, normal from
+  ∇c̄ of cⁿ or, ``interface_normal`` "height_function", the thin layers' (−h', 1); the donor
+  strip's granular share; Zalesak-limited to [0, 1]); the boundary keeps the upwind outflow.
 * What leaves: the upwind flux takes (u·n)⁺ c out through every side of the box, so
   ∫ c dx + ``outflow_volume`` (the watched outflow sides, a silo's orifice) +
   ``escaped_volume`` (every other side: the open top a haze of c rises through) is
@@ -36,13 +40,16 @@ from petsc4py import PETSc
 
 from dpcollapse import compat
 from dpcollapse.forms.two_phase import (
+    INTERFACE_FLUXES,
     compression_weights,
+    facet_volume_flux,
     fraction_flux,
     outflow_rate,
     outflow_volume_rate,
 )
 from dpcollapse.geometry.regions import cell_triangles
 from dpcollapse.models.two_phase.fluxes import StepFluxes
+from dpcollapse.models.two_phase.geometric_flux import GeometricFluxes
 from dpcollapse.models.two_phase.layer_normal import LayerNormal
 from dpcollapse.models.two_phase.remap import remap
 from dpcollapse.rheology.coordinates import PLANAR
@@ -59,8 +66,17 @@ class VolumeFraction:
 
     def __init__(self, mesh, courant: float, compression: float, name: str = "volume_fraction",
                  direction: str = "normal", coordinates=PLANAR, strips: tuple[float, int] | None = None,
-                 thin_layer_cells: float = 2.0, speed: str = "facet"):
+                 thin_layer_cells: float = 2.0, speed: str = "facet",
+                 interface_flux: str = "compression", interface_normal: str = "gradient"):
         self.mesh, self.comm = mesh, mesh.comm
+        if interface_flux not in INTERFACE_FLUXES:
+            raise ValueError(f"interface flux {interface_flux!r}: one of {', '.join(INTERFACE_FLUXES)}")
+        #: "compression" (upwind + algebraic compression) or "geometric" (``geometric_flux``)
+        self.interface_flux = interface_flux
+        #: the geometric flux's normal: "gradient" (−∇c̄) or "height_function" (in a layer
+        #: thinner than ``thin_layer_cells``, the layer's own (−h', 1), ``layer_normal``)
+        self.interface_normal = interface_normal
+        self._geometric = None
         #: planar (|K| the area, per unit depth) or axisymmetric (|K| = ∫_K 2πr dx)
         self.coordinates = coordinates
         self.courant, self.compression = courant, compression
@@ -104,6 +120,9 @@ class VolumeFraction:
 
     def bind(self, u) -> None:
         """Build the flux and rate forms for the velocity ``u``."""
+        if self.interface_flux == "geometric":
+            self._bind_geometric(u)
+            return
         mesh, C = self.mesh, self.compression
         v, trial = ufl.TestFunction(self.S0), ufl.TrialFunction(self.S0)
         n = ufl.FacetNormal(mesh)
@@ -128,6 +147,63 @@ class VolumeFraction:
         self._boundary = fem.form(outflow_volume_rate(v, u, n, ds))
         self._b = compat.create_vector(self._rate)
         self._u = u
+
+    def _bind_geometric(self, u) -> None:
+        """The geometric interface flux (``geometric_flux``): the net facet fluxes' matrix,
+        the local cells' geometry in dof order, the vertex average c̄ for the normals."""
+        mesh = self.mesh
+        v, trial = ufl.TestFunction(self.S0), ufl.TrialFunction(self.S0)
+        n = ufl.FacetNormal(mesh)
+        dS, ds = self._measure(ufl.dS), self._measure(ufl.ds)
+        if self._vertex is None:
+            self._vertex = _VertexAverage(self.c)
+        dofs = compat.cell_dofs(self.S0)[:, 0]
+        n_local = len(dofs)
+        triangles = np.empty((n_local, 3, 2))
+        triangles[dofs] = cell_triangles(mesh, owned_only=False)
+        nodes = np.empty((n_local, 3), dtype=np.int64)
+        nodes[dofs] = compat.geometry_dofmap(mesh)[:n_local, :3]
+        P1 = self._vertex.function.function_space
+        p1 = np.empty((n_local, 3), dtype=np.int64)
+        p1[dofs] = compat.cell_dofs(P1)[:n_local, :3]
+        self._vertex_dofs = p1
+        self._vertex_points = P1.tabulate_dof_coordinates()[:, :2][p1]
+        self._ratios = (fem.Function(self.S0), fem.Function(self.S0))
+        volume = fem.Function(self.S0)
+        volume.x.array[:self._n] = self.volume
+        volume.x.scatter_forward()
+        if self.interface_normal == "height_function":
+            if self.strips is None:
+                raise ValueError("interface normal 'height_function' needs the box's strips")
+            if self._layer is None:
+                self._layer = LayerNormal(self.c, *self.strips, self.thin_layer_cells)
+        self._geometric = GeometricFluxes(fem.form(facet_volume_flux(trial, u, v, n, dS)),
+                                          self.S0.dofmap.index_map, triangles, nodes,
+                                          volume.x.array.copy(), self._scatter_ratios)
+        self._rate = fem.form(outflow_rate(u, v, n, dS, ds, 0.0))
+        self._divergence = fem.form(self.coordinates.divergence(u) * v * self._measure(ufl.dx))
+        self._boundary = fem.form(outflow_volume_rate(v, u, n, ds))
+        self._b = compat.create_vector(self._rate)
+        self._u = u
+
+    def _layer_normals(self, geometric) -> None:
+        """In the thin layers' cells (owned and ghosts) the height function's normal (−h', 1)
+        (out of the grains of a layer on the bed) in place of −∇c̄'s."""
+        layer = self._layer
+        cells = layer._scalar_dofs
+        thin = layer.thin.x.array[cells] > 0.5
+        normal = layer.normal.x.array.reshape(-1, 2)[layer._vector_dofs]
+        geometric.normal[cells[thin]] = normal[thin]
+        geometric.has_normal[cells[thin]] = True
+
+    def _scatter_ratios(self, r_plus: np.ndarray, r_minus: np.ndarray):
+        """The limiter's R± of the owned cells onto every local cell (ghosts updated)."""
+        out = []
+        for f, values in zip(self._ratios, (r_plus, r_minus)):
+            f.x.array[:self._n] = values
+            f.x.scatter_forward()
+            out.append(f.x.array.copy())
+        return out
 
     def watch_outflow(self, ds_out) -> None:
         """Count the material leaving through the sides of the measure ``ds_out`` (after
@@ -197,13 +273,22 @@ class VolumeFraction:
             steps = max(1, math.ceil(dt * rate / self.courant - 1e-12)) if rate > 0 else 1
         h = dt / steps
         self.work.x.array[:] = self.c.x.array
+        geometric = self._geometric
         if self._vertex is not None:
             self._vertex.update()       # the interface normal of cⁿ, fixed over the sub-steps
         if self._layer is not None:
             self._layer.update()        # the thin layers' normals of cⁿ, likewise
-        self._fluxes.assemble()
+        if geometric is not None:
+            vertex = self._vertex.function.x.array
+            geometric.set_normals(self._vertex_points, vertex[self._vertex_dofs])
+            if self._layer is not None:
+                self._layer_normals(geometric)
+            geometric.assemble()
+        else:
+            self._fluxes.assemble()
         weights = None if self._outflow is None else self._assemble(self._outflow).copy()
         others = self._assemble(self._boundary).copy()     # every side, less the outflow's
+        boundary = others.copy()                             # every side (geometric's upwind)
         if weights is not None:
             others -= weights
         out = escaped = 0.0
@@ -213,7 +298,10 @@ class VolumeFraction:
                 local = float(weights @ own)
                 out += h * self.comm.allreduce(local, op=MPI.SUM)
             escaped += h * self.comm.allreduce(float(others @ own), op=MPI.SUM)
-            residual = self._fluxes.residual(self.work.x.array)
+            if geometric is not None:
+                residual = geometric.residual(self.work.x.array, h, boundary)
+            else:
+                residual = self._fluxes.residual(self.work.x.array)
             self.work.x.array[:self._n] -= h * residual / self.volume
             self.work.x.scatter_forward()
         self.pending = self.work.x.array.copy()
@@ -249,6 +337,8 @@ class VolumeFraction:
             self._b.destroy()
         if self._fluxes is not None:
             self._fluxes.destroy()
+        if self._geometric is not None:
+            self._geometric.destroy()
 
 
 class _VertexAverage:
