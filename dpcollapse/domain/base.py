@@ -65,7 +65,8 @@ def make_domain(cfg) -> Domain:
         return MovingDomain(n.remesh_min_angle, cfg.geometry.mesh_size,
                             cfg.geometry.surface_mesh_size, film_trim_thickness(cfg),
                             n.remesh_conserve_area, n.remesh_surgery,
-                            axisymmetric=cfg.geometry.coordinates == "axisymmetric")
+                            axisymmetric=cfg.geometry.coordinates == "axisymmetric",
+                            size_control=getattr(cfg, "size_control", None))
     from dpcollapse.domain.fixed import FixedDomain
 
     return FixedDomain()
