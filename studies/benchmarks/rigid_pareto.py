@@ -242,13 +242,16 @@ def temporal_split(rows: list[dict], ref: dict, log=print) -> list[dict]:
     out = []
     rows = [r for r in rows if not r["graded"] and r.get("norm", "max") == "max"]
     tightest = min(r["tol"] for r in rows)
-    for h in sorted({r["h"] for r in rows}):
-        group = sorted((r for r in rows if r["h"] == h), key=lambda r: r["tol"])
+    # one family per ΔX, and per indicator accuracy (numerics.mesh_tolerance) at that ΔX
+    for h, acc in sorted({(r["h"], r.get("accuracy") or 0.0) for r in rows}):
+        group = sorted((r for r in rows if r["h"] == h and (r.get("accuracy") or 0.0) == acc),
+                       key=lambda r: r["tol"])
         base = group[0]
         if base["tol"] > tightest:     # no Δt → 0 stand-in at this ΔX: nothing to split
             continue
         space = errors(base, ref)
-        log(f"ΔX = {100 * h:g} cm: spatial part (tol {base['tol']:g}): front history "
+        log(f"ΔX = {100 * h:g} cm{f', indicator {acc:g} m/s' if acc else ''}: spatial part "
+            f"(tol {base['tol']:g}): front history "
             f"{space['e_hist']:.2f} mm, profile L∞ {space['e_inf']:.2f} mm, L¹ {space['e_l1']:.2f} cm², "
             f"deposit {space['e_front']:+.2f} mm")
         tols, eh, steps = [], [], []
@@ -256,7 +259,7 @@ def temporal_split(rows: list[dict], ref: dict, log=print) -> list[dict]:
             t = errors(r, base)
             log(f"    tol {r['tol']:g}: temporal part: front history {t['e_hist']:.2f} mm, "
                 f"profile L∞ {t['e_inf']:.2f} mm, deposit {t['e_front']:+.2f} mm ({r['steps']} steps)")
-            out.append({"h": h, "tol": r["tol"], "space_hist": space["e_hist"],
+            out.append({"h": h, "accuracy": acc, "tol": r["tol"], "space_hist": space["e_hist"],
                         "time_hist": t["e_hist"], "time_inf": t["e_inf"], "time_front": t["e_front"]})
             tols.append(r["tol"])
             eh.append(t["e_hist"])
@@ -332,6 +335,8 @@ def chart(rows: list[dict], png: Path, default: str | None, proposed: str | None
             if r.get("accuracy"):
                 ax.plot(r["cpu"], r[key], "*", color=accuracy_colors[r["accuracy"]], ms=16,
                         mec="k", mew=1.0)
+                ax.annotate(f"{100 * r['surface']:g}/{r['norm']} {r['tol']:g}", (r["cpu"], r[key]),
+                            xytext=(6, -10), textcoords="offset points", fontsize=7)
                 continue
             ax.plot(r["cpu"], r[key], markers[r["tol"]], color=colors[r["h"]], ms=8,
                     mfc="none" if r["graded"] else colors[r["h"]],
@@ -362,7 +367,8 @@ def chart(rows: list[dict], png: Path, default: str | None, proposed: str | None
     handles += [plt.Line2D([], [], color="gray", marker="o", mec="k", mew=1.6, ls="",
                            label="rms error norm (black edge; others: max)")]
     handles += [plt.Line2D([], [], color=accuracy_colors[a], marker="*", mec="k", ms=12, ls="",
-                           label=f"indicator, mesh_tolerance {a:g} m/s") for a in accuracies]
+                           label=f"indicator, mesh_tolerance {a:g} m/s (label: surface cm / norm tol)")
+                for a in accuracies]
     handles += axes[1].get_legend_handles_labels()[0][-3:]
     fig.legend(handles=handles, fontsize=8, loc="lower center", ncol=6)
     fig.suptitle("rigid collapse: error against the space–time reference vs cost")
@@ -440,8 +446,7 @@ def main(argv=None) -> int:
     for key in ("e_hist", "e_inf", "e_l1"):
         idx = pareto([(r["cpu"], r[key]) for r in rows])
         print(f"Pareto front in {key}: " + ", ".join(rows[i]["name"] for i in idx))
-    temporal_split([r for r in rows if "history" in r and not r.get("accuracy")]
-                   + ([ref] if ref["h"] else []), ref)
+    temporal_split([r for r in rows if "history" in r] + ([ref] if ref["h"] else []), ref)
     if args.csv:
         args.csv.parent.mkdir(parents=True, exist_ok=True)
         keys = ["name", "h", "surface", "tol", "norm", "steps", "lu", "rejected", "remeshes", "rest", "cpu",
