@@ -173,3 +173,36 @@ def test_mesh_tolerance_bounds_default_to_a_factor_four():
     assert load_config(rigid).size_control is None
     cfg = load_config(rigid, ["numerics.mesh_tolerance=2e-3"])
     assert cfg.size_control == pytest.approx((2e-3, 0.0025, 0.04))
+
+
+def test_moving_domain_remeshes_to_the_indicator_of_its_flow():
+    """The wiring: a MovingDomain with ``size_control`` remeshes its mesh (a square, 10 cm) to
+    the size field of the flow it last saw — a velocity whose gradient jumps on x = 0.5 — so the
+    new mesh is fine along the jump and coarse away from it; without a flow seen, uniform."""
+    from types import SimpleNamespace
+
+    from mpi4py import MPI
+
+    from dpcollapse.domain.moving import MovingDomain
+    from dpcollapse.geometry.mesher import BED, SURFACE, mesh_polygon
+
+    pts = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    tags = np.array([BED, SURFACE, SURFACE, SURFACE])
+    tagged = mesh_polygon(MPI.COMM_SELF, pts, tags, 0.1)
+    u = _grid_p2(10, lambda x, y: (np.abs(x - 0.5), 0.0 * y))
+    flow = SimpleNamespace(snapshot=lambda: {"velocity": u})
+    domain = MovingDomain(12.0, 0.1, size_control=(1e-4, 0.02, 0.2))
+
+    def cells_near_far(tm):
+        dofs = tm.mesh.geometry.dofmap
+        dofs = dofs.array.reshape(-1, 3) if hasattr(dofs, "array") else np.asarray(dofs)
+        x = tm.mesh.geometry.x[dofs, 0].mean(axis=1)
+        return int(np.sum(np.abs(x - 0.5) < 0.1)), int(np.sum(np.abs(x - 0.5) > 0.3))
+
+    uniform, _ = domain.remesh(tagged, 1.0)          # no flow seen: no size field
+    domain._flow_of = (tagged, flow)                 # what needs_remesh records
+    adapted, _ = domain.remesh(tagged, 1.0)
+    un, uf = cells_near_far(uniform)
+    an, af = cells_near_far(adapted)
+    assert an > 4 * un                               # 2 cm along the jump against 10 cm
+    assert af <= uf                                  # 10–20 cm away from it
