@@ -154,8 +154,11 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
                   conserve_area: bool = False, surgery: bool = False,
                   surgeries: list | None = None,
                   axisymmetric: bool = False,
-                  trim_face_slope: float | None = None) -> tuple[TaggedMesh, float, int]:
+                  trim_face_slope: float | None = None,
+                  background=None) -> tuple[TaggedMesh, float, int]:
     """A new mesh of the current domain; returns (mesh, polygon area change, #vertices).
+    ``background``: the size inside from a size field (``geometry.mesher.build_polygon_model``;
+    ``ale.size_field``), the boundary resampled as without it.
 
     ``trim_thickness`` [m] > 0 trims a front film thinner than it (``repair_polygon``), by a
     face of slope ``trim_face_slope`` (None: vertical);
@@ -208,8 +211,26 @@ def remesh_domain(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: float
     if done is not None and surgeries is not None:
         surgeries.append(done)
     nverts = len(points) + sum(len(h[0]) for h in holes)
-    return (mesh_polygon(comm, points, tags, mesh_size, surface_mesh_size, holes=holes),
+    size = None if background is None else _field_sizes(
+        background, [points] + [h[0] for h in holes], mesh_size, surface_mesh_size)
+    return (mesh_polygon(comm, points, tags, mesh_size, surface_mesh_size, size=size,
+                         holes=holes, background=background),
             d_area, nverts)
+
+
+def _field_sizes(background, loops: list, mesh_size: float, surface_mesh_size: float | None):
+    """size(point, tag) at the boundary's vertices with a size field: the smaller of the
+    tag's size and the field's there (an edge longer than 1.5 of it is split by gmsh)."""
+    from dpcollapse.ale.size_field import SizeField
+
+    pts = np.concatenate([np.asarray(p, dtype=float) for p in loops])
+    local = dict(zip(map(tuple, pts), SizeField(*background).at(pts)))
+    hs = surface_mesh_size or mesh_size
+
+    def size(point: np.ndarray, tag: int) -> float:
+        return min(hs if tag == SURFACE else mesh_size, float(local[tuple(point)]))
+
+    return size
 
 
 def boundary_contact(tagged: TaggedMesh, mesh_size: float,

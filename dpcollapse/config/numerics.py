@@ -158,6 +158,19 @@ class NumericsConfig(_Section):
         "or the mass itself (closer than 0.25 geometry.mesh_size, or crossing) as the union of "
         "the mass; enclosed pockets of 4 cells or more are kept as holes, smaller ones closed")
     ale: bool = Field(True, strict=True, description="Move the mesh (false: fixed domain)")
+    mesh_tolerance: Number | None = _f(
+        None, "m/s", "Moving mesh: the accuracy asked of the mesh instead of a size: every "
+        "remesh sizes the cells inside so that the Zienkiewicz-Zhu indicator of the velocity, "
+        "eta_K = ||G* - grad u_h||_L2(K) (about the velocity error on the cell), comes to this "
+        "(h_new = h (tol/eta_K)^(1/3), within mesh_size_min..mesh_size_max; the free surface "
+        "keeps geometry.surface_mesh_size or mesh_size, the first mesh geometry.mesh_size); "
+        "null: uniform geometry.mesh_size", gt=0, le=1)
+    mesh_size_min: Number | None = _f(
+        None, "m", "With mesh_tolerance: the smallest cell size (null: geometry.mesh_size / 4)",
+        gt=0, le=1)
+    mesh_size_max: Number | None = _f(
+        None, "m", "With mesh_tolerance: the largest cell size (null: 4 x geometry.mesh_size)",
+        gt=0, le=1)
 
     @model_validator(mode="after")
     def _iterative(self) -> NumericsConfig:

@@ -88,6 +88,7 @@ class Config(_Section):
         if g.periodic and self.numerics.ale:
             raise ConfigError(f"numerics.ale = true: a periodic domain is fixed; must be false "
                               f"with geometry.shape = {g.shape}")
+        self._mesh_tolerance()
         if self.numerics.extrapolate and self.time.adaptive:
             # measured (1 cm rigid case, dt_max 1.5 ms): a 1–1.5 mm/s creep accepted at one
             # iteration per step went on from t = 0.9 s to the 1.8 s cap instead of stopping
@@ -113,6 +114,40 @@ class Config(_Section):
             raise ConfigError(f"numerics.linear_solver = 'iterative': not available on a periodic "
                               f"domain (geometry.shape = {g.shape}); use mumps or superlu_dist")
         return self
+
+    @property
+    def size_control(self) -> tuple[float, float, float] | None:
+        """``numerics.mesh_tolerance`` [m/s] and the smallest and largest cell sizes [m] it
+        may ask for (null bounds: geometry.mesh_size / 4 and × 4), or None."""
+        n = self.numerics
+        if n.mesh_tolerance is None:
+            return None
+        h = self.geometry.mesh_size
+        return (n.mesh_tolerance, n.mesh_size_min if n.mesh_size_min is not None else h / 4,
+                n.mesh_size_max if n.mesh_size_max is not None else 4 * h)
+
+    def _mesh_tolerance(self) -> None:
+        """The indicator-driven size (``numerics.mesh_tolerance``): the moving mesh of the 2D
+        model only, and a size range that is one."""
+        n = self.numerics
+        if n.mesh_tolerance is None:
+            for key in ("mesh_size_min", "mesh_size_max"):
+                if getattr(n, key) is not None:
+                    raise ConfigError(f"numerics.{key} = {_fmt(getattr(n, key))}: only with "
+                                      "numerics.mesh_tolerance set (the indicator's size range)")
+            return
+        if self.model.name != "stokes" or not n.ale:
+            raise ConfigError(f"numerics.mesh_tolerance = {_fmt(n.mesh_tolerance)}: only with "
+                              "model.name = stokes and numerics.ale = true (the moving mesh's "
+                              "remesher); must be null here")
+        _, lo, hi = self.size_control
+        if lo > hi:
+            raise ConfigError(f"numerics.mesh_size_min = {_fmt(lo)} m: must be <= "
+                              f"numerics.mesh_size_max ({_fmt(hi)} m)")
+        if not lo <= self.geometry.mesh_size <= hi:
+            raise ConfigError(f"geometry.mesh_size = {_fmt(self.geometry.mesh_size)} m: with "
+                              f"numerics.mesh_tolerance it must lie in numerics.mesh_size_min"
+                              f"..mesh_size_max ({_fmt(lo)}..{_fmt(hi)} m)")
 
     def _moving_mesh(self) -> None:
         """The mass's mesh must fit the cell limit and the machine (``geometry.mesh_size`` =

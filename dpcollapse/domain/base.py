@@ -68,7 +68,8 @@ def make_domain(cfg) -> Domain:
                             n.remesh_conserve_area, n.remesh_surgery,
                             axisymmetric=cfg.geometry.coordinates == "axisymmetric",
                             trim_face_slope=film_face_slope(cfg),
-                            trim_face_speed=film_face_speed(cfg))
+                            trim_face_speed=film_face_speed(cfg),
+                            size_control=getattr(cfg, "size_control", None))
     from dpcollapse.domain.fixed import FixedDomain
 
     return FixedDomain()

@@ -22,6 +22,12 @@ MIN_ANGLE_FLOOR (or with non-finite node coordinates) is remeshed at the next st
 the cool-down; a remesh that cannot lift it above the floor (the boundary itself is
 degenerate: a film or a spike thinner than the cells) ends the run, MeshError (exit 4),
 before the new mesh is used.
+
+With ``numerics.mesh_tolerance`` (``size_control``: tolerance [m/s], smallest and largest
+size [m]) every remesh meshes the inside to the size field of the current velocity's error
+indicator (``ale.size_field``), and every ADAPT_CHECK_EVERY steps (after as many since the
+last remesh) the indicator is evaluated: cells above its trigger that can still be refined
+ask for a remesh ("indicator").
 """
 
 from __future__ import annotations
@@ -59,6 +65,9 @@ REMESH_DEGRADATION = 0.9
 #: 40° μ(I) bed went 3.1° → 0.5° → 0.0° over three remeshes, the last one 267 251 cells
 #: (from 1 536) on which MUMPS's symbolic analysis never returned.
 MIN_ANGLE_FLOOR = 1.0
+#: With numerics.mesh_tolerance: steps between two evaluations of the error indicator (and
+#: since the last remesh before the first).
+ADAPT_CHECK_EVERY = 50
 
 log = logging.getLogger("dpcollapse")
 
@@ -71,7 +80,8 @@ class MovingDomain:
                  surface_mesh_size: float | None = None, trim_thickness: float = 0.0,
                  conserve_area: bool = False, surgery: bool = False,
                  axisymmetric: bool = False, trim_face_slope: float | None = None,
-                 trim_face_speed: float = math.inf):
+                 trim_face_speed: float = math.inf,
+                 size_control: tuple[float, float, float] | None = None):
         self.remesh_min_angle = remesh_min_angle
         #: the slope μ_r of the film trim's cut face (``domain.base.film_face_slope``; None:
         #: vertical), used while the thickness front moves slower than ``trim_face_speed`` =
@@ -82,6 +92,9 @@ class MovingDomain:
         self.front_speed = math.inf
         self._front_since: tuple[float, float] | None = None
         self._front_now: tuple[float, float] | None = None
+        #: numerics.mesh_tolerance [m/s], mesh_size_min, mesh_size_max [m]; None: uniform sizes
+        self.size_control = size_control
+        self._flow_of = None   # the mesh (tagged) the last needs_remesh saw, and its flow
         #: geometry.symmetry axisymmetric: a remesh puts back the body's volume, not the area
         self.axisymmetric = axisymmetric
         self.surgery = surgery
@@ -181,6 +194,7 @@ class MovingDomain:
         return _below_floor(quality(disc.mesh)["min_angle"])
 
     def needs_remesh(self, disc, state) -> str | None:
+        self._flow_of = (disc.tagged, disc.flow)
         q = quality(disc.mesh)
         if _below_floor(q["min_angle"]) and state.last_remesh_step != state.step:
             return f"min angle {q['min_angle']:.2f}° below the floor {MIN_ANGLE_FLOOR:g}°"
@@ -193,7 +207,29 @@ class MovingDomain:
             contact = boundary_contact(disc.tagged, self.mesh_size, self._boundary_loops)
             if contact:
                 return f"boundary {contact}"
+        if (self.size_control is not None and since >= ADAPT_CHECK_EVERY
+                and state.step % ADAPT_CHECK_EVERY == 0):
+            from dpcollapse.ale.size_field import recovery_indicator, under_resolved
+
+            tolerance, size_min, _ = self.size_control
+            cells = under_resolved(recovery_indicator(disc.flow.snapshot()["velocity"]),
+                                   tolerance, size_min)
+            if cells:
+                return f"indicator: {cells} cell(s) above the mesh tolerance"
         return None
+
+    def _background(self, tagged):
+        """The size field of the current velocity (``ale.size_field``) as the mesher's
+        background arrays, or None (no size control, or no flow of this mesh seen)."""
+        if self.size_control is None or self._flow_of is None or self._flow_of[0] is not tagged:
+            return None
+        from dpcollapse.ale.size_field import size_field
+
+        field, ind = size_field(self._flow_of[1].snapshot()["velocity"], *self.size_control)
+        log.info("size field: indicator max %.2e m/s (tolerance %.2e), sizes %.4g–%.4g m",
+                 float(ind.eta.max()), self.size_control[0], float(field.sizes.min()),
+                 float(field.sizes.max()))
+        return field.triangles, field.sizes
 
     def remesh(self, tagged, area0: float):
         """A new mesh of the current boundary (``ale.remesh``; with several material regions
@@ -208,7 +244,8 @@ class MovingDomain:
                                             tolerance * area0, self.trim_thickness,
                                             self.conserve_area, self.surgery, self.surgeries,
                                             axisymmetric=self.axisymmetric,
-                                            trim_face_slope=slope)
+                                            trim_face_slope=slope,
+                                            background=self._background(tagged))
         except ValueError as exc:   # the boundary is no longer one closed loop
             raise MeshError(f"mesh degenerate: cannot remesh, {exc}") from exc
         reason = _below_floor(quality(new.mesh)["min_angle"])

@@ -56,7 +56,8 @@ def remesh_regions(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: floa
                    conserve_area: bool = False, surgery: bool = False,
                    surgeries: list | None = None,
                    axisymmetric: bool = False,
-                   trim_face_slope: float | None = None) -> tuple[TaggedMesh, float, int]:
+                   trim_face_slope: float | None = None,
+                   background=None) -> tuple[TaggedMesh, float, int]:
     """A new mesh of the current domain with its cell tags: (mesh, polygon area change,
     number of boundary vertices); see the module docstring. With one region the front
     film trim, the surgery of contacts (``surgery``; each one done appended to
@@ -64,7 +65,8 @@ def remesh_regions(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: floa
     the surgery and each region's area restoration of ``geometry.region_surgery`` (no film
     trim: the layer itself is thinner than the cells; ``trim_face_slope``: the trim's cut
     face, ``remesh_domain``). ``axisymmetric``: the volume of
-    the body of revolution is what is put back (``remesh_domain``)."""
+    the body of revolution is what is put back (``remesh_domain``). ``background``: the
+    size inside from a size field, one region only (``remesh_domain``)."""
     comm = tagged.mesh.comm
     field = gather_regions(tagged)
     tags = None if field is None else np.rint(field.values[:, 0, 0]).astype(np.int32)
@@ -72,7 +74,7 @@ def remesh_regions(tagged: TaggedMesh, mesh_size: float, surface_mesh_size: floa
         new, d_area, nverts = remesh_domain(tagged, mesh_size, surface_mesh_size, max_area_change,
                                             trim_thickness, conserve_area, surgery, surgeries,
                                             axisymmetric=axisymmetric,
-                                            trim_face_slope=trim_face_slope)
+                                            trim_face_slope=trim_face_slope, background=background)
         return (new if field is None else carry_regions(tagged, new, field)), d_area, nverts
     if (surgery or conserve_area) and not axisymmetric:
         return _rebuilt_regions(tagged, field, tags, mesh_size, surface_mesh_size,

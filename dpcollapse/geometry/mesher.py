@@ -101,13 +101,16 @@ def _stdin_closed():
 
 def build_polygon_model(gmsh, points: np.ndarray, edge_tags: np.ndarray,
                         size: Callable[[np.ndarray, int], float],
-                        holes: list | None = None) -> None:
+                        holes: list | None = None, background=None) -> None:
     """Add a plane surface bounded by ``points`` (CCW, edge i from point i to i+1), with
     ``holes`` (a list of (points, edge_tags) loops inside it; pockets kept by
     ``geometry.surgery``).
 
     ``size(point, tag)`` gives the target mesh size at a vertex given the tag of the
     edge leaving it (the smaller of the two adjacent edges' sizes is used).
+    ``background`` (triangles (n, 3, 2), sizes (n, 3) [m], linear in each triangle: an
+    ``ale.size_field.SizeField``'s arrays) sets the size inside instead of the boundary's
+    (``set_background_sizes``).
     """
     gmsh.model.add("domain")
     occ = gmsh.model.geo
@@ -142,7 +145,25 @@ def build_polygon_model(gmsh, points: np.ndarray, edge_tags: np.ndarray,
     # boundary edges up to 1.5 h long (see boundary_segments) must not coarsen the inside
     sizes = [size(np.asarray(points)[i], int(edge_tags[i])) for i in range(len(points))]
     gmsh.option.setNumber("Mesh.MeshSizeMax", float(max(sizes)))
+    if background is not None:
+        set_background_sizes(gmsh, *background)
     gmsh.model.mesh.generate(2)
+
+
+def set_background_sizes(gmsh, triangles: np.ndarray, sizes: np.ndarray) -> None:
+    """The mesh size inside the surface from a triangulated size field (a gmsh list-based
+    view, "PostView" background field), no longer extended from the boundary; bounded by the
+    field's own range."""
+    tri, h = np.asarray(triangles, dtype=float), np.asarray(sizes, dtype=float)
+    data = np.concatenate([tri[:, :, 0], tri[:, :, 1], np.zeros((len(tri), 3)), h], axis=1)
+    view = gmsh.view.add("mesh size")
+    gmsh.view.addListData(view, "ST", len(tri), data.ravel().tolist())
+    field = gmsh.model.mesh.field.add("PostView")
+    gmsh.model.mesh.field.setNumber(field, "ViewTag", view)
+    gmsh.model.mesh.field.setAsBackgroundMesh(field)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeMin", float(h.min()))
+    gmsh.option.setNumber("Mesh.MeshSizeMax", float(h.max()))
 
 
 def boundary_segments(points: np.ndarray, tags: np.ndarray,
@@ -184,13 +205,14 @@ def size_function(mesh_size: float, surface_mesh_size: float | None):
 def mesh_polygon(comm: MPI.Comm, points: np.ndarray | None, edge_tags: np.ndarray | None,
                  mesh_size: float, surface_mesh_size: float | None = None,
                  size: Callable[[np.ndarray, int], float] | None = None,
-                 holes: list | None = None) -> TaggedMesh:
+                 holes: list | None = None, background=None) -> TaggedMesh:
     """Mesh the polygon given on rank 0 (other ranks may pass None), with its ``holes``
     ((points, edge tags) loops), over ``comm``; ``size`` (point, edge tag) → target size
-    replaces ``size_function`` when given."""
+    replaces ``size_function`` when given; ``background``: the size inside
+    (``build_polygon_model``)."""
     size = size or size_function(mesh_size, surface_mesh_size)
     return _mesh_on_root(comm, lambda gmsh: build_polygon_model(
-        gmsh, np.asarray(points), np.asarray(edge_tags), size, holes))
+        gmsh, np.asarray(points), np.asarray(edge_tags), size, holes, background))
 
 
 #: Floor of the time bound of one gmsh generation [s] (``DPCOLLAPSE_MESH_TIME_LIMIT``); the

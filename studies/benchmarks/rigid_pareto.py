@@ -47,7 +47,15 @@ reference. The observed order in the tolerance (and in the step count N, the mea
 
 The chart: front-history error and profile L∞ against CPU time, one marker per run (colour:
 ΔX, marker: tolerance, open: graded mesh), the Pareto front (no run both cheaper and more
-accurate in that error) drawn, ``--default`` and ``--proposed`` ringed.
+accurate in that error) drawn, ``--default`` and ``--proposed`` ringed. Runs sized by the
+error indicator (``numerics.mesh_tolerance``, column ``accuracy``) are drawn as large stars,
+apart from ΔX's colours.
+
+``--rows CSV`` adds the rows of an earlier run of this script (its ``--csv``) whose run
+directories were not kept: charted, on the Pareto fronts and checked against the default, but
+not measured again (their errors are against that CSV's reference, which must be this
+one: the script checks that its reference row's deposit front and steps equal this
+reference's; names already loaded are skipped).
 """
 
 from __future__ import annotations
@@ -86,6 +94,7 @@ def load(run: Path) -> dict | None:
     h = cfg["geometry"]["mesh_size"]
     surf = cfg["geometry"].get("surface_mesh_size") or h
     return {"name": run.name, "h": h, "surface": surf, "graded": surf != h,
+            "accuracy": cfg.get("numerics", {}).get("mesh_tolerance"),
             "tol": cfg["time"]["tolerance"], "norm": cfg["time"].get("error_norm", "rms"),
             "cpu": cpu_seconds(run),
             "total": info["timings"]["total"], "steps": s["steps"],
@@ -233,13 +242,16 @@ def temporal_split(rows: list[dict], ref: dict, log=print) -> list[dict]:
     out = []
     rows = [r for r in rows if not r["graded"] and r.get("norm", "max") == "max"]
     tightest = min(r["tol"] for r in rows)
-    for h in sorted({r["h"] for r in rows}):
-        group = sorted((r for r in rows if r["h"] == h), key=lambda r: r["tol"])
+    # one family per ΔX, and per indicator accuracy (numerics.mesh_tolerance) at that ΔX
+    for h, acc in sorted({(r["h"], r.get("accuracy") or 0.0) for r in rows}):
+        group = sorted((r for r in rows if r["h"] == h and (r.get("accuracy") or 0.0) == acc),
+                       key=lambda r: r["tol"])
         base = group[0]
         if base["tol"] > tightest:     # no Δt → 0 stand-in at this ΔX: nothing to split
             continue
         space = errors(base, ref)
-        log(f"ΔX = {100 * h:g} cm: spatial part (tol {base['tol']:g}): front history "
+        log(f"ΔX = {100 * h:g} cm{f', indicator {acc:g} m/s' if acc else ''}: spatial part "
+            f"(tol {base['tol']:g}): front history "
             f"{space['e_hist']:.2f} mm, profile L∞ {space['e_inf']:.2f} mm, L¹ {space['e_l1']:.2f} cm², "
             f"deposit {space['e_front']:+.2f} mm")
         tols, eh, steps = [], [], []
@@ -247,7 +259,7 @@ def temporal_split(rows: list[dict], ref: dict, log=print) -> list[dict]:
             t = errors(r, base)
             log(f"    tol {r['tol']:g}: temporal part: front history {t['e_hist']:.2f} mm, "
                 f"profile L∞ {t['e_inf']:.2f} mm, deposit {t['e_front']:+.2f} mm ({r['steps']} steps)")
-            out.append({"h": h, "tol": r["tol"], "space_hist": space["e_hist"],
+            out.append({"h": h, "accuracy": acc, "tol": r["tol"], "space_hist": space["e_hist"],
                         "time_hist": t["e_hist"], "time_inf": t["e_inf"], "time_front": t["e_front"]})
             tols.append(r["tol"])
             eh.append(t["e_hist"])
@@ -258,6 +270,34 @@ def temporal_split(rows: list[dict], ref: dict, log=print) -> list[dict]:
             c0 = np.polyfit(np.log(tols), np.log(eh), 1)[1]
             log(f"    observed order of the temporal front-history error: tol^{q:.2f}, N^{qn:.2f}; "
                 f"the tol {base['tol']:g} run's own ≈ {math.exp(c0) * base['tol'] ** q:.2f} mm")
+    return out
+
+
+ROW_FLOATS = ("h", "surface", "tol", "rest", "cpu", "total", "front", "height", "e_hist", "e_inf",
+              "e_l1", "e_front", "e_height")
+
+
+def earlier_rows(path: Path, ref: dict, skip: set) -> list[dict]:
+    """The rows of an earlier ``--csv`` (``main``), as charted rows (no history or profile),
+    those named in ``skip`` left out; refused (SystemExit) unless the CSV's reference row
+    (its first) has this reference's deposit front (to 1e-12 m) and steps."""
+    with open(path, newline="") as fh:
+        raw = list(csv.DictReader(fh))
+    head = raw[0]
+    if (abs(float(head["front"]) - ref["front"]) > 1e-12 or int(head["steps"]) != ref["steps"]):
+        raise SystemExit(f"--rows {path}: its reference {head['name']} (front {head['front']} m, "
+                         f"{head['steps']} steps) is not this one ({ref['front']!r} m, {ref['steps']})")
+    out = []
+    for row in raw[1:]:
+        if row["name"] in skip:
+            continue
+        r = {k: (float(v) if k in ROW_FLOATS and v != "" else v) for k, v in row.items()}
+        for k in ("steps", "lu", "rejected", "remeshes"):
+            r[k] = int(r[k]) if r.get(k) not in (None, "") else 0
+        r["graded"] = r["surface"] != r["h"]
+        r["accuracy"] = float(row["accuracy"]) if row.get("accuracy") else None
+        r["from_rows"] = True
+        out.append(r)
     return out
 
 
@@ -279,8 +319,11 @@ def chart(rows: list[dict], png: Path, default: str | None, proposed: str | None
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    sizes = sorted({r["h"] for r in rows})
+    sizes = sorted({r["h"] for r in rows if not r.get("accuracy")})
     tols = sorted({r["tol"] for r in rows})
+    accuracies = sorted({r["accuracy"] for r in rows if r.get("accuracy")})
+    accuracy_colors = {a: plt.cm.plasma(0.15 + 0.7 * i / max(len(accuracies) - 1, 1))
+                       for i, a in enumerate(accuracies)}
     markers = dict(zip(tols, "v^osDph*XP<>d12348"))
     colors = {h: f"C{i}" for i, h in enumerate(sizes)}
     fig, axes = plt.subplots(1, 3, figsize=(16, 7.0))
@@ -289,6 +332,12 @@ def chart(rows: list[dict], png: Path, default: str | None, proposed: str | None
                                "profile at rest L¹ [cm²]")):
         for r in rows:
             rms = r.get("norm", "max") == "rms"
+            if r.get("accuracy"):
+                ax.plot(r["cpu"], r[key], "*", color=accuracy_colors[r["accuracy"]], ms=16,
+                        mec="k", mew=1.0)
+                ax.annotate(f"{100 * r['surface']:g}/{r['norm']} {r['tol']:g}", (r["cpu"], r[key]),
+                            xytext=(6, -10), textcoords="offset points", fontsize=7)
+                continue
             ax.plot(r["cpu"], r[key], markers[r["tol"]], color=colors[r["h"]], ms=8,
                     mfc="none" if r["graded"] else colors[r["h"]],
                     mec="k" if rms else colors[r["h"]], mew=1.6 if rms else 1.0)
@@ -317,6 +366,9 @@ def chart(rows: list[dict], png: Path, default: str | None, proposed: str | None
                            label="graded (open: ΔX inside, surface finer)")]
     handles += [plt.Line2D([], [], color="gray", marker="o", mec="k", mew=1.6, ls="",
                            label="rms error norm (black edge; others: max)")]
+    handles += [plt.Line2D([], [], color=accuracy_colors[a], marker="*", mec="k", ms=12, ls="",
+                           label=f"indicator, mesh_tolerance {a:g} m/s (label: surface cm / norm tol)")
+                for a in accuracies]
     handles += axes[1].get_legend_handles_labels()[0][-3:]
     fig.legend(handles=handles, fontsize=8, loc="lower center", ncol=6)
     fig.suptitle("rigid collapse: error against the space–time reference vs cost")
@@ -337,6 +389,7 @@ def main(argv=None) -> int:
     ap.add_argument("--variants", nargs="*", default=[],
                     help="runs of a charted setting under other round-off (another OpenBLAS kernel): "
                          "listed apart, as the spread of that setting's errors, not charted")
+    ap.add_argument("--rows", type=Path, help="rows of an earlier --csv (same reference) to chart")
     ap.add_argument("--csv", type=Path)
     ap.add_argument("--png", type=Path)
     args = ap.parse_args(argv)
@@ -371,6 +424,8 @@ def main(argv=None) -> int:
         if name == ref["name"] or name in args.exclude or name in args.variants:
             continue
         rows.append(r | errors(r, ref))
+    if args.rows:
+        rows += earlier_rows(args.rows, ref, set(loaded) | set(args.exclude) | set(args.variants))
     variants = [loaded[n] | errors(loaded[n], ref) for n in args.variants if n in loaded]
     rows.sort(key=lambda r: (r["h"], r["surface"], r["tol"], r.get("norm", "max")))
     base = next((r for r in rows if r["name"] == args.default), None)
@@ -391,11 +446,12 @@ def main(argv=None) -> int:
     for key in ("e_hist", "e_inf", "e_l1"):
         idx = pareto([(r["cpu"], r[key]) for r in rows])
         print(f"Pareto front in {key}: " + ", ".join(rows[i]["name"] for i in idx))
-    temporal_split(rows + ([ref] if ref["h"] else []), ref)
+    temporal_split([r for r in rows if "history" in r] + ([ref] if ref["h"] else []), ref)
     if args.csv:
         args.csv.parent.mkdir(parents=True, exist_ok=True)
         keys = ["name", "h", "surface", "tol", "norm", "steps", "lu", "rejected", "remeshes", "rest", "cpu",
-                "total", "front", "height", "e_hist", "e_inf", "e_l1", "e_front", "e_height", "meets"]
+                "total", "front", "height", "e_hist", "e_inf", "e_l1", "e_front", "e_height", "meets",
+                "accuracy"]
         with open(args.csv, "w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(keys)

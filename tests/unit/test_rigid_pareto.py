@@ -82,3 +82,31 @@ def test_done_when_against_the_default():
     for key, bad in (("e_hist", 1.21), ("e_inf", 1.5), ("e_l1", 1.31), ("e_front", -2.6)):
         verdict = rigid_pareto.meets(ok | {key: bad}, default)
         assert not verdict["all"] and not verdict[key]
+
+
+def test_earlier_rows_are_charted_only_against_the_same_reference(tmp_path):
+    """``--rows``: the rows of an earlier CSV join the chart when its reference row is this
+    reference (deposit front and steps); another reference is refused."""
+    import csv
+
+    path = tmp_path / "grid.csv"
+    keys = ["name", "h", "surface", "tol", "norm", "steps", "lu", "rejected", "remeshes", "rest",
+            "cpu", "total", "front", "height", "e_hist", "e_inf", "e_l1", "e_front", "e_height",
+            "meets"]
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(keys)
+        w.writerow(["h0.7_t3e-5", 0.007, 0.007, 3e-5, "max", 3977, 6113, 458, 21, 0.945, 390.0,
+                    2609.0, 0.6648130358617593, 0.21, "", "", "", "", "", ""])
+        w.writerow(["h3_rms8e-5", 0.03, 0.03, 8e-5, "rms", 204, 715, 10, 9, 0.941, 4.8, 30.0,
+                    0.6642, 0.209, 0.83, 1.36, 5.31, -0.63, -1.0, "yes"])
+        w.writerow(["h1_t3e-4", 0.01, 0.01, 3e-4, "max", 617, 1446, 80, 17, 0.935, 42.6, 290.0,
+                    0.666, 0.21, 2.12, 1.79, 5.69, 1.18, 0.1, ""])
+    ref = {"front": 0.6648130358617593, "steps": 3977}
+    rows = rigid_pareto.earlier_rows(path, ref, skip={"h1_t3e-4"})
+    assert [r["name"] for r in rows] == ["h3_rms8e-5"]
+    r = rows[0]
+    assert r["e_hist"] == 0.83 and r["cpu"] == 4.8 and r["steps"] == 204 and not r["graded"]
+    assert r["accuracy"] is None
+    with pytest.raises(SystemExit, match="is not this one"):
+        rigid_pareto.earlier_rows(path, {"front": 0.66481, "steps": 3977}, skip=set())
