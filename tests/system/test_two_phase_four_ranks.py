@@ -19,7 +19,7 @@ from tests.helpers import OVERSUBSCRIBE, ROOT, clean_env, dpcollapse_cmd, run_cl
 from tests.regression.test_regression import REFERENCE
 
 SHORT = ["model.min_cell=0.01", "model.max_cell=0.02", "numerics.fixed_iterations=1",
-         "numerics.extrapolate=true", "model.remesh_every=2", "time.end_time=0.008",
+         "numerics.extrapolate=true", "model.remesh_every=2", "time.end_time=0.006",
          "time.output_every=1000", "time.checkpoint_every=1000"]
 CONFIG = "configs/column_eulerian_a0.5.yaml"
 
@@ -42,7 +42,7 @@ def test_four_ranks_equal_serial(tmp_path):
     assert four.returncode == 0, four.stderr[-2000:]
     one, many = _summary(tmp_path / "serial"), _summary(tmp_path / "four")
     assert json.loads((tmp_path / "four" / "run.json").read_text())["mpi_size"] == 4
-    assert many["remeshes"] >= 3           # the rebuilds ran on 4 ranks
+    assert many["remeshes"] >= 2           # the rebuilds ran on 4 ranks
     for key in ("steps", "remeshes", "flow_solves"):
         assert many[key] == one[key], key
     tolerance = REFERENCE["two_phase_short"]["tolerance"]
