@@ -77,3 +77,46 @@ def test_remap_between_dolfinx_meshes_conserves_under_mpi():
     assert lo >= -1e-14 and hi <= 1 + 1e-12
     coarse.remap_from(*fine.gathered())
     assert coarse.integral() == pytest.approx(mass, rel=1e-12)
+
+
+@pytest.mark.mpi
+def test_fields_of_one_mesh_share_one_overlap_search(monkeypatch):
+    """``flow.remap_fields``: c and cⁿ⁻¹ (different supports) of one old mesh are remapped in
+    one candidate search and one set of overlaps — the remap's cost, paid once, not per field
+    — and each equals its own remap (``remap_from``, conservative) to round-off; a field of
+    another mesh gets its own search. Serial and on 2 ranks."""
+    from dpcollapse.models.two_phase import remap as remap_module
+    from dpcollapse.models.two_phase.flow import remap_fields
+    from dpcollapse.transfer import CellwiseField
+
+    comm = MPI.COMM_WORLD
+    rect = compat.create_rectangle
+
+    def fraction(n):
+        return VolumeFraction(rect(comm, (0.0, 0.0), (LENGTH, HEIGHT), (n, n // 2 + 1)), 0.4, 1.0)
+
+    old, other, new = fraction(13), fraction(9), fraction(29)
+    expected = VolumeFraction(new.mesh, 0.4, 1.0)
+    x = old.S0.tabulate_dof_coordinates()
+    fields = {}
+    for name, values in (("c", np.clip(0.5 - x[:, 0], 0, 1)), ("previous", np.clip(x[:, 1] - 0.2, 0, 1))):
+        old.c.x.array[:] = values
+        tri, v = old.gathered()
+        fields[name] = CellwiseField(vertices=tri, points=tri, degree=1,
+                                     values=np.repeat(v[:, None], 3, axis=1))
+    other.c.x.array[:] = 0.25
+    tri, v = other.gathered()
+    fields["other"] = CellwiseField(vertices=tri, points=tri, degree=1,
+                                    values=np.repeat(v[:, None], 3, axis=1))
+    searches = []
+    search = remap_module.candidate_pairs
+    monkeypatch.setattr(remap_module, "candidate_pairs",
+                        lambda *a: searches.append(1) or search(*a))
+    remap_fields([(new.c, fields["c"]), (new.previous, fields["previous"]),
+                  (new.work, fields["other"])], new.mesh)
+    assert len(searches) == 2          # one for c and cⁿ⁻¹ together, one for the other mesh
+    for name, target in (("c", new.c), ("previous", new.previous), ("other", new.work)):
+        f = fields[name]
+        expected.remap_from(f.vertices, f.values[:, 0, 0])
+        np.testing.assert_allclose(target.x.array, expected.c.x.array, rtol=0, atol=1e-14)
+        assert comm.allreduce(target.x.array.max(initial=0.0), op=MPI.MAX) > 0.2

@@ -49,7 +49,8 @@ from dpcollapse.forms.two_phase import (
 from dpcollapse.geometry.regions import cell_triangles
 from dpcollapse.models.stokes.regularized import PicardSettings, RegularizedFlow
 from dpcollapse.models.stokes.state import FlowParameters
-from dpcollapse.models.two_phase.fraction import VolumeFraction
+from dpcollapse.models.two_phase.fraction import VolumeFraction, owned_triangles
+from dpcollapse.models.two_phase.remap import remap
 from dpcollapse.scenes.base import BoundaryKind
 from dpcollapse.transfer import CellwiseField, concatenate
 
@@ -62,6 +63,24 @@ def cell_centroids(mesh):
     x = cell_triangles(mesh, owned_only=False).mean(axis=1)
     centroids.x.array.reshape(-1, 2)[compat.cell_dofs(V)[:, 0]] = x
     return centroids
+
+
+def remap_fields(targets: list, mesh) -> None:
+    """Each DG0 function of ``targets`` [(function, CellwiseField)] on ``mesh``'s owned cells
+    = the exact conservative remap (``remap.remap``) of its field's cell values. The fields
+    that share one old mesh (c, cⁿ⁻¹ and the tracers of one snapshot) go in one call, so that
+    the candidate pairs and their overlaps |K_i ∩ T_j| — the remap's whole cost — are found
+    once for all of them (c_j = Σ_i c_i |K_i ∩ T_j| / |T_j| for each field); ghosts updated."""
+    n = compat.num_owned_cells(mesh)
+    new = owned_triangles(mesh)
+    while targets:
+        vertices = targets[0][1].vertices
+        group = [t for t in targets if np.array_equal(t[1].vertices, vertices)]
+        targets = [t for t in targets if all(t is not g for g in group)]
+        values = remap(vertices, np.stack([f.values[:, 0, 0] for _, f in group], axis=1), new)
+        for k, (function, _) in enumerate(group):
+            function.x.array[compat.cell_dofs(function.function_space)[:n, 0]] = values[:, k]
+            function.x.scatter_forward()
 
 
 @dataclass(frozen=True)
@@ -282,20 +301,20 @@ class TwoPhaseFlow(RegularizedFlow):
     def transfer(self, fields: dict) -> float:
         """The state of ``snapshot`` fields: u, p interpolated (``RegularizedFlow.transfer``);
         c and the tracers by the exact conservative remap of their cell values
-        (``fraction.VolumeFraction.remap_from``: ∫ c kept to round-off); what has left the
+        (``remap_fields``: ∫ c kept to round-off, one overlap search for all); what has left the
         box so far carried over (∫ c + it is the balance across an adaptive remesh)."""
         names = {fraction.c.name for fraction in self._fractions()} | {PREVIOUS_FRACTION, LEFT_THE_BOX}
         if LEFT_THE_BOX in fields:
             self.fraction.outflow_volume, self.fraction.escaped_volume = fields[LEFT_THE_BOX]
         outside = super().transfer({k: v for k, v in fields.items() if k not in names})
-        for fraction in self._fractions():
-            field = fields.get(fraction.c.name)
-            if field is not None:
-                fraction.remap_from(field.vertices, field.values[:, 0, 0])
-        field = fields.get(PREVIOUS_FRACTION)
-        if field is not None and self.light.inertia != "velocity":
-            self.fraction.remap_from(field.vertices, field.values[:, 0, 0], previous=True)
-        else:                       # a state without cⁿ⁻¹: the step starts without ∂ρ/∂t
+        targets = [(fraction.c, fields.get(fraction.c.name)) for fraction in self._fractions()]
+        previous = fields.get(PREVIOUS_FRACTION)
+        keep_history = previous is not None and self.light.inertia != "velocity"
+        if keep_history:
+            targets.append((self.fraction.previous, previous))
+        remap_fields([(target, field) for target, field in targets if field is not None],
+                     self.mesh)
+        if not keep_history:        # a state without cⁿ⁻¹: the step starts without ∂ρ/∂t
             self.fraction.forget_history()
         return outside
 
