@@ -179,6 +179,10 @@ class LoopState:
     #: the largest kinetic energy so far [J/m] (the rest rule time.rest_energy_fraction;
     #: in the checkpoint so that a resumed run stops where the uninterrupted one does)
     kinetic_energy_peak: float | None = None
+    #: the moving domain's thickness-front window since the last remesh, [t0, x0, speed]
+    #: ([s], [m], [m/s]; speed None while unknown): in the checkpoint so that a resumed run's
+    #: film trim chooses its cut face as the uninterrupted one does (``MovingDomain``)
+    front_window: list | None = None
     #: the error-controlled step's controller (``StepController.record``: its last estimate
     #: and rejections), so that a resumed run takes the uninterrupted run's steps
     step_controller: dict | None = None

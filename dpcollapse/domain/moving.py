@@ -92,6 +92,7 @@ class MovingDomain:
         self.front_speed = math.inf
         self._front_since: tuple[float, float] | None = None
         self._front_now: tuple[float, float] | None = None
+        self._window_read = False   # the loop state's front_window read (a resumed run)
         #: numerics.mesh_tolerance [m/s], mesh_size_min, mesh_size_max [m]; None: uniform sizes
         self.size_control = size_control
         self._flow_of = None   # the mesh (tagged) the last needs_remesh saw, and its flow
@@ -164,7 +165,10 @@ class MovingDomain:
         velocity, so the kinetic energy of step n−1 is compared with the work up to step n;
         a gain above (1 + ENERGY_TOLERANCE) W means a numerical instability (MeshError)."""
         st, m = state, measures
+        self._read_window(st)
         self._track_front(st.t, m.get("thick_front"))
+        st.front_window = None if self._front_since is None else \
+            [*self._front_since, self.front_speed if math.isfinite(self.front_speed) else None]
         work = m["gravity_moment"] - st.gravity_moment0
         previous = st.kinetic_energy_previous
         gained = (st.kinetic_energy0 if previous is None else previous) - st.kinetic_energy0
@@ -175,6 +179,18 @@ class MovingDomain:
                 f"({gained:.3g} J/m) exceeds the work of gravity ({work:.3g} J/m); min cell angle "
                 f"{m['min_angle']:.2f}°: the mass is likely thinner than geometry.mesh_size = "
                 f"{self.mesh_size:g} m somewhere — use a finer mesh or a shorter time.end_time")
+
+    def _read_window(self, state) -> None:
+        """Once, at the first step a run takes: the front window a checkpoint stored
+        (``LoopState.front_window``), so that a resumed run continues the uninterrupted one's
+        window (and its ``front_speed`` before that step's first remesh)."""
+        if self._window_read:
+            return
+        self._window_read = True
+        window = getattr(state, "front_window", None)
+        if window:
+            self._front_since = (float(window[0]), float(window[1]))
+            self.front_speed = math.inf if window[2] is None else float(window[2])
 
     def _track_front(self, t: float, x_f: float | None) -> None:
         """The thickness front's speed over the steps since the last remesh (a window without
@@ -194,6 +210,7 @@ class MovingDomain:
         return _below_floor(quality(disc.mesh)["min_angle"])
 
     def needs_remesh(self, disc, state) -> str | None:
+        self._read_window(state)
         self._flow_of = (disc.tagged, disc.flow)
         q = quality(disc.mesh)
         if _below_floor(q["min_angle"]) and state.last_remesh_step != state.step:
@@ -263,6 +280,7 @@ class MovingDomain:
         then waits until the angle drops below REMESH_DEGRADATION × it."""
         after = state.remesh_angle_after = quality(disc.mesh)["min_angle"]
         self._front_since = None     # the front's speed: over the steps of the new mesh
+        state.front_window = None
         for done in self.surgeries[len(self.surgery_events) - self._listed:]:   # this remesh's
             event = {"t": state.t, "step": state.step, "remesh": state.remeshes,
                      "what": done.describe(), "area_change": done.area_change,
