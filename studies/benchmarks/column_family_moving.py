@@ -151,6 +151,7 @@ def run_row(run_dir: Path) -> dict:
         words = last[0].split() if last else []
         if len(words) == 3 and all(w.replace(".", "", 1).isdigit() for w in words):
             cpu = f"{float(words[0]) + float(words[1]):.1f}"
+    l0 = g["base_length"]      # 0.1 m in the family; the ladder's 0.07 m for a like-for-like run
     bed = cfg["boundary"]["bed_condition"]
     if bed == "coulomb":
         bed = f"coulomb {math.tan(math.radians(cfg['boundary']['bed_friction_angle'])):.2f}"
@@ -161,11 +162,11 @@ def run_row(run_dir: Path) -> dict:
         "status": summ["status"], "t_end": f"{summ['t']:.4f}", "steps": summ["steps"],
         "iterations": int(its.sum()), "max_step_iterations": int(its.max()),
         "capped_steps": int((its >= cap).sum()),
-        "mass_front": f"{(summ['front'] - L0) / L0:.4f}",
-        "thickness_front": f"{(summ['thick_front'] - L0) / L0:.4f}",
+        "mass_front": f"{(summ['front'] - l0) / l0:.4f}",
+        "thickness_front": f"{(summ['thick_front'] - l0) / l0:.4f}",
         "film_threshold": f"{summ['film_threshold']:.5f}",
-        "front_6mm": f"{(profile_front(xs, h, COMMON_THICKNESS) - L0) / L0:.4f}",
-        "max_height": f"{summ['max_height'] / L0:.4f}", "area_drift": f"{summ['area_drift']:.1e}",
+        "front_6mm": f"{(profile_front(xs, h, COMMON_THICKNESS) - l0) / l0:.4f}",
+        "max_height": f"{summ['max_height'] / l0:.4f}", "area_drift": f"{summ['area_drift']:.1e}",
         "remeshes": summ["remeshes"], "landings": summ["landings"], "surgeries": summ["surgeries"],
         "cpu_s": cpu, "cpu_per_step_s": f"{float(cpu) / summ['steps']:.3f}" if cpu else "",
     }
