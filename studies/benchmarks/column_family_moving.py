@@ -8,6 +8,7 @@ Report: docs/benchmarks/2026-12-07-column-family-moving-mesh.md.
     python studies/benchmarks/column_family_moving.py figure OUT.png MOVING.csv TWO_PHASE.csv
     python studies/benchmarks/column_family_moving.py commands --rheology drucker_prager [...]
     python studies/benchmarks/column_family_moving.py figure-dp OUT.png DP.csv LADDER.csv
+    python studies/benchmarks/column_family_moving.py fronts H1,H2,... RUN_DIR...   (x_f - L0 at h [m])
 
 ``commands`` prints one ``dpcollapse run`` line per case (a, bed, cells L0/n), each under
 ``/usr/bin/time`` (CPU seconds into RUN_DIR.time) and ``nice``/``timeout``; the run
@@ -342,6 +343,15 @@ def main(argv: list[str]) -> None:
             print(" | ".join(str(r[k]) for k in COLUMNS))
     elif kind == "figure":
         figure(Path(argv[1]), Path(argv[2]), Path(argv[3]))
+    elif kind == "fronts":     # the thickness front at given h, on each run's last mesh
+        hs = [float(v) for v in argv[1].split(",")]
+        for d in argv[2:]:
+            l0 = json.loads((Path(d) / "run.json").read_text())["config"]["geometry"]["base_length"]
+            t, x, cells = read_series(Path(d))[-1]
+            xs, h = mesh_thickness_profile(x, cells)
+            runout = [profile_front(xs, h, v) - l0 for v in hs]
+            print(d, f"t = {t:.4f} s:", " ".join(f"h = {v:g}: {r:.5f} m ({r / l0:.4f} L0)"
+                                                  for v, r in zip(hs, runout)))
     elif kind == "figure-dp":
         figure_dp(Path(argv[1]), Path(argv[2]), Path(argv[3]))
     else:
