@@ -6,6 +6,9 @@ Report: docs/benchmarks/2026-12-07-column-family-moving-mesh.md.
         [--a 0.5,3]
     python studies/benchmarks/column_family_moving.py table OUT.csv RUN_DIR...   (OUT.csv's other rows kept)
     python studies/benchmarks/column_family_moving.py figure OUT.png MOVING.csv TWO_PHASE.csv
+    python studies/benchmarks/column_family_moving.py commands --rheology drucker_prager [...]
+    python studies/benchmarks/column_family_moving.py figure-dp OUT.png DP.csv LADDER.csv
+    python studies/benchmarks/column_family_moving.py fronts H1,H2,... RUN_DIR...   (x_f - L0 at h [m])
 
 ``commands`` prints one ``dpcollapse run`` line per case (a, bed, cells L0/n), each under
 ``/usr/bin/time`` (CPU seconds into RUN_DIR.time) and ``nice``/``timeout``; the run
@@ -26,6 +29,14 @@ run's steps, iterations, steps at the iteration cap, area drift, remeshes, landi
 surgeries, CPU seconds. ``figure`` draws the moving-mesh law (thickness front at 6 mm, and at
 the run's own 3 d) beside the two-phase law of ``docs/figures/column_runout_adaptive.csv``
 and the experimental bands, one panel per bed, and H_f/L0.
+
+``--rheology drucker_prager`` (report 2026-12-07-column-family-drucker-prager.md): the same
+columns and beds with the Drucker–Prager material of the ladder's columns (``configs/column.yaml``:
+μ = tan 25.5°, η = 1 Pa s), no grain size, so the film trim is ``numerics.remesh_film_trim``'s
+δ = 0.2 ΔX alone and the run's ``film_threshold`` is ΔX/4; run directories under
+``runs/dpfam``. ``figure-dp`` draws that family (thickness front at ΔX/4 and at 6 mm, H_f/L0)
+beside the ladder's Drucker–Prager columns (``docs/figures/ladder.csv``: the two-phase rung's
+c > ½ front and the 2D rung's front, L0 = 0.07 m, Coulomb bed tan 25.5°) and the bands.
 """
 
 from __future__ import annotations
@@ -49,6 +60,10 @@ L0 = 0.1                       # [m]
 GRAIN_COUNT = 2911.34          # H0 L0 / d² of the a = 6.26 discrete column (135 × 21.57 grains)
 COMMON_THICKNESS = 6.0e-3      # [m] 3 × 2 mm, the two-phase law's stated thickness
 COULOMB = {"boundary.bed_condition": "coulomb", "boundary.bed_friction_angle": 30.9638}
+#: the ladder's Drucker–Prager columns' material (configs/column.yaml); no grain size, so no
+#: trim in grains (refused without one): the trim is numerics.remesh_film_trim × ΔX alone
+DRUCKER_PRAGER = {"material.rheology": "drucker_prager", "material.friction_angle": 25.5,
+                  "numerics.remesh_film_trim_grains": 0}
 
 #: a → (config, overrides): the family's cases on the no-slip bed at the config's cells
 FAMILY = {
@@ -67,10 +82,13 @@ COLUMNS = ("bed", "a", "cells", "mesh_size", "grain_diameter", "status", "t_end"
 
 
 def commands(cells: list[int], beds: list[str], aspect: list[float], out: str = "runs/fam",
-             cap_s: int = 6000) -> list[str]:
+             cap_s: int = 6000, rheology: str = "mu_i") -> list[str]:
     lines = []
     for a in aspect:
         config, sets = FAMILY[a]
+        if rheology == "drucker_prager":
+            sets = {**{k: v for k, v in sets.items() if not k.startswith("material.grain")},
+                    **DRUCKER_PRAGER}
         for bed in beds:
             for n in cells:
                 name = f"a{a:g}_{'ns' if bed == 'no_slip' else 'co'}_{n}"
@@ -134,21 +152,22 @@ def run_row(run_dir: Path) -> dict:
         words = last[0].split() if last else []
         if len(words) == 3 and all(w.replace(".", "", 1).isdigit() for w in words):
             cpu = f"{float(words[0]) + float(words[1]):.1f}"
+    l0 = g["base_length"]      # 0.1 m in the family; the ladder's 0.07 m for a like-for-like run
     bed = cfg["boundary"]["bed_condition"]
     if bed == "coulomb":
         bed = f"coulomb {math.tan(math.radians(cfg['boundary']['bed_friction_angle'])):.2f}"
     return {
         "bed": bed,
         "a": f"{g['height'] / g['base_length']:.4g}", "cells": f"L0/{g['base_length'] / g['mesh_size']:.3g}",
-        "mesh_size": g["mesh_size"], "grain_diameter": cfg["material"]["grain_diameter"],
+        "mesh_size": g["mesh_size"], "grain_diameter": cfg["material"].get("grain_diameter", ""),
         "status": summ["status"], "t_end": f"{summ['t']:.4f}", "steps": summ["steps"],
         "iterations": int(its.sum()), "max_step_iterations": int(its.max()),
         "capped_steps": int((its >= cap).sum()),
-        "mass_front": f"{(summ['front'] - L0) / L0:.4f}",
-        "thickness_front": f"{(summ['thick_front'] - L0) / L0:.4f}",
+        "mass_front": f"{(summ['front'] - l0) / l0:.4f}",
+        "thickness_front": f"{(summ['thick_front'] - l0) / l0:.4f}",
         "film_threshold": f"{summ['film_threshold']:.5f}",
-        "front_6mm": f"{(profile_front(xs, h, COMMON_THICKNESS) - L0) / L0:.4f}",
-        "max_height": f"{summ['max_height'] / L0:.4f}", "area_drift": f"{summ['area_drift']:.1e}",
+        "front_6mm": f"{(profile_front(xs, h, COMMON_THICKNESS) - l0) / l0:.4f}",
+        "max_height": f"{summ['max_height'] / l0:.4f}", "area_drift": f"{summ['area_drift']:.1e}",
         "remeshes": summ["remeshes"], "landings": summ["landings"], "surgeries": summ["surgeries"],
         "cpu_s": cpu, "cpu_per_step_s": f"{float(cpu) / summ['steps']:.3f}" if cpu else "",
     }
@@ -248,6 +267,52 @@ def figure(out: Path, moving_csv: Path, two_phase_csv: Path) -> None:
     fig.savefig(out, dpi=120)
 
 
+def figure_dp(out: Path, dp_csv: Path, ladder_csv: Path) -> None:
+    """The Drucker–Prager family: ΔL/L0 (thickness front at ΔX/4 and at 6 mm) and H_f/L0 against
+    a per bed and cells, beside the ladder's Drucker–Prager columns (L0 = 0.07 m, bed tan 25.5°):
+    the two-phase rung's c > ½ front (runout_tp) and the 2D rung's front (runout_2d, 1 cm cells)."""
+    with dp_csv.open() as f:
+        moving = list(csv.DictReader(f))
+    with ladder_csv.open() as f:
+        ladder = [r for r in csv.DictReader(f) if r["group"] == "column"]
+    lad_l0 = 0.07
+    lad_a = [float(r["param"]) for r in ladder]
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5.2))
+    ax = axes[0]
+    bands(ax)
+    styles = {}
+    for r in moving:
+        styles.setdefault((r["bed"], r["cells"]), f"C{len(styles)}")
+    for (bed, cells), c in styles.items():
+        sel = sorted((r for r in moving if r["bed"] == bed and r["cells"] == cells),
+                     key=lambda r: float(r["a"]))
+        a = [float(r["a"]) for r in sel]
+        ax.loglog(a, [float(r["thickness_front"]) for r in sel], "o-", color=c,
+                  label=f"moving mesh, {bed}, {cells}, h_f = ΔX/4")
+        ax.loglog(a, [float(r["front_6mm"]) for r in sel], "o:", color=c, mfc="white",
+                  label=f"moving mesh, {bed}, {cells}, h_f = 6 mm")
+        axes[1].loglog(a, [float(r["max_height"]) for r in sel], "o-", color=c,
+                       label=f"moving mesh, {bed}, {cells}")
+    ax.loglog(lad_a, [float(r["runout_tp"]) / lad_l0 for r in ladder], "s--", color="0.4", ms=4,
+              label="ladder two-phase (c > ½), coulomb 0.48, 4.4 mm")
+    ax.loglog(lad_a, [float(r["runout_2d"]) / lad_l0 for r in ladder], "v--", color="0.6", ms=4,
+              label="ladder 2D (mass front), coulomb 0.48, 1 cm")
+    axes[1].loglog(lad_a, [float(r["height_tp"]) / lad_l0 for r in ladder], "s--", color="0.4", ms=4,
+                   label="ladder two-phase")
+    axes[1].loglog(lad_a, [float(r["height_2d"]) / lad_l0 for r in ladder], "v--", color="0.6", ms=4,
+                   label="ladder 2D")
+    ax.set_xlabel("a = H0/L0"), ax.set_ylabel("ΔL/L0")
+    ax.grid(alpha=0.3, which="both"), ax.legend(fontsize=6.5, loc="upper left")
+    axes[1].set_xlabel("a = H0/L0"), axes[1].set_ylabel("H_f/L0")
+    axes[1].set_title("deposit height", fontsize=10)
+    axes[1].grid(alpha=0.3, which="both"), axes[1].legend(fontsize=6.5, loc="upper left")
+    print_fits(moving)
+    fig.suptitle("Drucker–Prager columns (μ = tan 25.5°, η = 1 Pa s) on the moving mesh, L0 = 0.1 m, "
+                 "beside the ladder's (L0 = 0.07 m)", fontsize=11)
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+
+
 def main(argv: list[str]) -> None:
     kind = argv[0] if argv else ""
     if kind == "commands":
@@ -255,7 +320,11 @@ def main(argv: list[str]) -> None:
         cells = [int(c) for c in opts.get("--cells", "16,32").split(",")]
         beds = opts.get("--beds", "no_slip,coulomb").split(",")
         aspect = [float(a) for a in opts.get("--a", ",".join(f"{a:g}" for a in FAMILY)).split(",")]
-        print("\n".join(commands(cells, beds, aspect)))
+        rheology = opts.get("--rheology", "mu_i")
+        if rheology not in ("mu_i", "drucker_prager"):
+            sys.exit(f"--rheology = {rheology}: allowed mu_i, drucker_prager")
+        out = "runs/dpfam" if rheology == "drucker_prager" else "runs/fam"
+        print("\n".join(commands(cells, beds, aspect, out=out, rheology=rheology)))
     elif kind == "table":
         rows = [run_row(Path(d)) for d in argv[2:]]
         printed = rows
@@ -274,6 +343,17 @@ def main(argv: list[str]) -> None:
             print(" | ".join(str(r[k]) for k in COLUMNS))
     elif kind == "figure":
         figure(Path(argv[1]), Path(argv[2]), Path(argv[3]))
+    elif kind == "fronts":     # the thickness front at given h, on each run's last mesh
+        hs = [float(v) for v in argv[1].split(",")]
+        for d in argv[2:]:
+            l0 = json.loads((Path(d) / "run.json").read_text())["config"]["geometry"]["base_length"]
+            t, x, cells = read_series(Path(d))[-1]
+            xs, h = mesh_thickness_profile(x, cells)
+            runout = [profile_front(xs, h, v) - l0 for v in hs]
+            print(d, f"t = {t:.4f} s:", " ".join(f"h = {v:g}: {r:.5f} m ({r / l0:.4f} L0)"
+                                                  for v, r in zip(hs, runout)))
+    elif kind == "figure-dp":
+        figure_dp(Path(argv[1]), Path(argv[2]), Path(argv[3]))
     else:
         sys.exit(__doc__)
 
