@@ -30,22 +30,30 @@ def test_the_power_fit_recovers_the_exponent_and_its_error():
     assert np.isnan(law.power_fit(a[:2], y[:2])[2])        # two points: no error
 
 
+def _run_dir(tmp_path, config: str, diagnostics: str, name: str = "axi_a2_h0.01",
+             status: str = "at_rest"):
+    """A run directory ``name``: config.yaml, run.json (its status) and diagnostics.csv as
+    given."""
+    run = tmp_path / name
+    run.mkdir()
+    (run / "config.yaml").write_text(config)
+    (run / "run.json").write_text(json.dumps({"status": status}))
+    (run / "diagnostics.csv").write_text(diagnostics)
+    return run
+
+
 def test_the_laboratory_fits_as_quoted():
     assert law.lube([1.0, 1.7, 4.0]) == pytest.approx([1.24, 1.24 * 1.7, 3.2])
     assert law.lajeunesse([0.5, 3.0, 4.0]) == pytest.approx([0.5, 3.0, 4.0])
 
 
 def test_a_run_directory_is_read_into_its_deposit(tmp_path):
-    run = tmp_path / "axi_a2_h0.01"
-    run.mkdir()
-    (run / "config.yaml").write_text(
-        "geometry: {shape: column, symmetry: axisymmetric, height: 0.2, base_length: 0.1, "
-        "mesh_size: 0.01}\nmaterial: {rheology: mu_i}\nboundary: {bed_condition: no_slip}\n")
-    (run / "run.json").write_text(json.dumps({"status": "at_rest"}))
-    (run / "diagnostics.csv").write_text(
-        "step,t,front,thick_front,max_height,area,remeshes,surgeries\n"
-        "0,0.0,0.1,0.1,0.2,0.0062831853,0,0\n"
-        "500,0.5,0.36,0.34,0.055,0.0062831790,40,2\n")
+    run = _run_dir(tmp_path,
+                   "geometry: {shape: column, symmetry: axisymmetric, height: 0.2, base_length: 0.1, "
+                   "mesh_size: 0.01}\nmaterial: {rheology: mu_i}\nboundary: {bed_condition: no_slip}\n",
+                   "step,t,front,thick_front,max_height,area,remeshes,surgeries\n"
+                   "0,0.0,0.1,0.1,0.2,0.0062831853,0,0\n"
+                   "500,0.5,0.36,0.34,0.055,0.0062831790,40,2\n")
     (tmp_path / "axi_a2_h0.01.time").write_text("Command exited with non-zero status 1\n12.5 0.5 40.1\n")
     row = law.run_row(run)
     assert row["a"] == pytest.approx(2.0) and row["status"] == "at_rest"
@@ -58,17 +66,14 @@ def test_a_run_directory_is_read_into_its_deposit(tmp_path):
 def test_a_run_not_at_rest_is_read_where_it_settled(tmp_path):
     """A deposit still creeping at the end (status end_time) is read at its first row after
     the kinetic energy's peak below 1e-3 of it."""
-    run = tmp_path / "axi_a0.5_h0.01"
-    run.mkdir()
-    (run / "config.yaml").write_text(
-        "geometry: {height: 0.05, base_length: 0.1, mesh_size: 0.01}\nmaterial: {rheology: mu_i}\n")
-    (run / "run.json").write_text(json.dumps({"status": "end_time"}))
-    (run / "diagnostics.csv").write_text(
-        "step,t,front,thick_front,max_height,area,remeshes,kinetic_energy\n"
-        "0,0.0,0.1,0.1,0.05,1.0,0,0.0\n"
-        "100,0.1,0.15,0.14,0.045,1.0,9,2.0\n"
-        "400,0.4,0.17,0.16,0.0435,1.0,29,1.9e-3\n"
-        "3000,3.0,0.158,0.151,0.046,1.0,153,3.0e-3\n")
+    run = _run_dir(tmp_path,
+                   "geometry: {height: 0.05, base_length: 0.1, mesh_size: 0.01}\nmaterial: {rheology: mu_i}\n",
+                   "step,t,front,thick_front,max_height,area,remeshes,kinetic_energy\n"
+                   "0,0.0,0.1,0.1,0.05,1.0,0,0.0\n"
+                   "100,0.1,0.15,0.14,0.045,1.0,9,2.0\n"
+                   "400,0.4,0.17,0.16,0.0435,1.0,29,1.9e-3\n"
+                   "3000,3.0,0.158,0.151,0.046,1.0,153,3.0e-3\n",
+                   name="axi_a0.5_h0.01", status="end_time")
     row = law.run_row(run)
     assert row["state"] == "settled" and row["t"] == pytest.approx(0.4)
     assert row["thickness_runout"] == pytest.approx(0.6)
@@ -108,16 +113,12 @@ def test_an_earlier_csv_is_merged_with_its_friction(tmp_path):
     assert [r["mu_s"] for r in rows] == [0.32, 0.477]
     assert rows[0]["thickness_runout"] == 2.38 and rows[0]["steps"] == 635
     assert np.isnan(rows[1]["runout_h5mm"])
-    run = tmp_path / "axi_a2_h0.01"
-    run.mkdir()
-    (run / "config.yaml").write_text(
-        "geometry: {height: 0.2, base_length: 0.1, mesh_size: 0.01}\n"
-        "material: {rheology: mu_i, friction_angle: 17.7447}\n")
-    (run / "run.json").write_text(json.dumps({"status": "at_rest"}))
-    (run / "diagnostics.csv").write_text(
-        "step,t,front,thick_front,max_height,area,remeshes\n"
-        "0,0.0,0.1,0.1,0.2,1.0,0\n"
-        "500,0.5,0.36,0.34,0.055,1.0,40\n")
+    run = _run_dir(tmp_path,
+                   "geometry: {height: 0.2, base_length: 0.1, mesh_size: 0.01}\n"
+                   "material: {rheology: mu_i, friction_angle: 17.7447}\n",
+                   "step,t,front,thick_front,max_height,area,remeshes\n"
+                   "0,0.0,0.1,0.1,0.2,1.0,0\n"
+                   "500,0.5,0.36,0.34,0.055,1.0,40\n")
     _deposit_checkpoint(run, 500)
     out = tmp_path / "law.csv"
     law.main([str(run), "--previous", str(old), "--csv", str(out)])
@@ -141,13 +142,9 @@ def test_the_cone_factor_of_a_cone_is_a_third():
 def test_the_aspect_ratio_is_one_key_per_column(tmp_path):
     """H0/r0 = 0.3/0.1 is 2.9999999999999996 in floating point: the run's a is rounded, so
     it meets an earlier CSV's row of a = 3 as the same column."""
-    run = tmp_path / "axi_a3_h0.01"
-    run.mkdir()
-    (run / "config.yaml").write_text(
-        "geometry: {height: 0.3, base_length: 0.1, mesh_size: 0.01}\nmaterial: {rheology: mu_i}\n")
-    (run / "run.json").write_text(json.dumps({"status": "at_rest"}))
-    (run / "diagnostics.csv").write_text(
-        "step,t,front,thick_front,max_height,area,remeshes\n"
-        "0,0.0,0.1,0.1,0.3,1.0,0\n"
-        "600,0.6,0.45,0.43,0.057,1.0,40\n")
+    run = _run_dir(tmp_path,
+                   "geometry: {height: 0.3, base_length: 0.1, mesh_size: 0.01}\nmaterial: {rheology: mu_i}\n",
+                   "step,t,front,thick_front,max_height,area,remeshes\n"
+                   "0,0.0,0.1,0.1,0.3,1.0,0\n"
+                   "600,0.6,0.45,0.43,0.057,1.0,40\n", name="axi_a3_h0.01")
     assert law.run_row(run)["a"] == 3.0
