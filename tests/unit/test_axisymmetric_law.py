@@ -67,7 +67,8 @@ def test_a_run_not_at_rest_is_read_where_it_settled(tmp_path):
     """A deposit still creeping at the end (status end_time) is read at its first row after
     the kinetic energy's peak below 1e-3 of it."""
     run = _run_dir(tmp_path,
-                   "geometry: {height: 0.05, base_length: 0.1, mesh_size: 0.01}\nmaterial: {rheology: mu_i}\n",
+                   "geometry: {height: 0.05, base_length: 0.1, mesh_size: 0.01}\n"
+                   "material: {rheology: mu_i}\n",
                    "step,t,front,thick_front,max_height,area,remeshes,kinetic_energy\n"
                    "0,0.0,0.1,0.1,0.05,1.0,0,0.0\n"
                    "100,0.1,0.15,0.14,0.045,1.0,9,2.0\n"
