@@ -48,6 +48,17 @@ def _local_columns(index_map, columns: np.ndarray) -> np.ndarray:
     return local
 
 
+def local_csr(mat, form, index_map) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``form`` assembled into ``mat`` (zeroed first) as CSR arrays of the owned rows, the
+    columns mapped to local dofs (owned, then ghosts): (indptr, columns, values)."""
+    mat.zeroEntries()
+    fem_petsc.assemble_matrix(mat, form)
+    mat.assemble()
+    indptr, columns, values = mat.getValuesCSR()
+    return np.asarray(indptr), _local_columns(index_map, np.asarray(columns, np.int64)), \
+        np.asarray(values)
+
+
 class StepFluxes:
     """A and the compression weights for one step's velocity (``assemble``), and the
     sub-step residual ``residual(c)`` = ∫_∂K (F_upwind + F_compression) ds per owned cell."""
@@ -62,13 +73,7 @@ class StepFluxes:
         self._pairs = None
 
     def _csr(self, k: int):
-        mat, form = self._mats[k], self._forms[k]
-        mat.zeroEntries()
-        fem_petsc.assemble_matrix(mat, form)
-        mat.assemble()
-        indptr, columns, values = mat.getValuesCSR()
-        return np.asarray(indptr), _local_columns(self.index_map, np.asarray(columns, np.int64)), \
-            np.asarray(values)
+        return local_csr(self._mats[k], self._forms[k], self.index_map)
 
     def assemble(self) -> None:
         """The matrices for the current velocity (once per step)."""

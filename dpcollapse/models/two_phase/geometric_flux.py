@@ -29,10 +29,9 @@ geometry are local, and the limiter's R± of the ghost cells come by one forward
 from __future__ import annotations
 
 import numpy as np
-from dolfinx.fem import petsc as fem_petsc
 
 from dpcollapse import compat
-from dpcollapse.models.two_phase.fluxes import _local_columns
+from dpcollapse.models.two_phase.fluxes import local_csr
 
 #: c within this of 0 or 1 is not a mixed cell (no reconstruction: the upwind value)
 MIXED = 1.0e-6
@@ -147,16 +146,10 @@ class GeometricFluxes:
 
     def assemble(self) -> None:
         """Φ_ij for the current velocity (once per step) and each pair's apexes."""
-        mat = self._mat
-        mat.zeroEntries()
-        fem_petsc.assemble_matrix(mat, self._form)
-        mat.assemble()
-        indptr, columns, values = mat.getValuesCSR()
-        indptr = np.asarray(indptr)
-        columns = _local_columns(self.index_map, np.asarray(columns, np.int64))
+        indptr, columns, values = local_csr(self._mat, self._form, self.index_map)
         rows = np.repeat(np.arange(self._n), np.diff(indptr))
         off = rows != columns
-        rows, columns, flux = rows[off], columns[off], np.asarray(values)[off]
+        rows, columns, flux = rows[off], columns[off], values[off]
         self._pairs = (rows, columns, flux, self._apex(rows, columns), self._apex(columns, rows))
 
     def _apex(self, cells, others) -> np.ndarray:
