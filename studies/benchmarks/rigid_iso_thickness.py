@@ -1,13 +1,15 @@
 """Deposit fronts at fixed thicknesses: where the free surface of the last snapshot is δ high (issue 51).
 
-    python studies/benchmarks/rigid_iso_thickness.py RUN [RUN ...] [--deltas 0.001 0.002 0.005 0.01 0.02 0.05]
+    python studies/benchmarks/rigid_iso_thickness.py RUN [RUN ...] \
+        [--deltas 0.001 0.002 0.005 0.01 0.02 0.05] [--time T]
 
 The diagnostics' ``front`` is the mass's last point and ``thick_front`` the point where the
 mass is last film_threshold = geometry.mesh_size/4 thick: both depend on the cell size by
 construction. Here the free surface h(x) of each run's last solution.xdmf snapshot (its
 boundary edges off the bed y = 0 and the wall x = 0, the upper envelope, linear between
 vertices) gives x_δ = the largest x with h(x) ≥ δ, for fixed δ [m]: fronts that mean the
-same on every mesh. Also the deposit height max h.
+same on every mesh. Also the deposit height max h. ``--time T``: the snapshot nearest T
+instead of the last (a deposit read before a late creep of its toe, or mid-flow).
 
 The viscous/plastic reader is rigid_dx_dissipation.py's (same folder).
 """
@@ -55,11 +57,13 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+")
     ap.add_argument("--deltas", nargs="+", type=float, default=[0.001, 0.002, 0.005, 0.01, 0.02, 0.05])
+    ap.add_argument("--time", type=float, default=None, help="the snapshot nearest this time [s]")
     args = ap.parse_args()
     print("run | t [s] | " + " | ".join(f"x at h = {d * 1e3:g} mm [m]" for d in args.deltas)
           + " | tip [m] | max h [m]")
     for run in args.runs:
-        t, h5, _ = snapshots(run)[-1]
+        snaps = snapshots(run)
+        t, h5, _ = snaps[-1] if args.time is None else min(snaps, key=lambda s: abs(s[0] - args.time))
         a, b = surface(h5)
         fronts = [iso_front(a, b, d) for d in args.deltas]
         tip = max(a[:, 0].max(), b[:, 0].max())
