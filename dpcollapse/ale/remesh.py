@@ -236,7 +236,7 @@ def _field_sizes(background, loops: list, mesh_size: float, surface_mesh_size: f
 def boundary_contact(tagged: TaggedMesh, mesh_size: float,
                      chained: BoundaryLoops | None = None) -> str | None:
     """The contacts of the free surface with the bed or the mass that a surgery would act on
-    now (``geometry.surgery.surgery_needed``: "crossing", "self-contact", "bed contact"), or
+    now (``geometry.surgery.surgery_needed``: "crossing", "self-contact", "bed contact", "notch"), or
     None; the same on every rank. ``chained`` (``geometry.boundary_loops``) reuses the
     chaining of the boundary edges while the mesh only moves (the same loops)."""
     all_edges, all_tags = boundary_edges(tagged)

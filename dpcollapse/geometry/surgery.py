@@ -7,14 +7,20 @@ A *contact* is one of
   g = CONTACT_GAP·h, the segment between them through air (its midpoint outside the mass)
   and p at least CONTACT_ARC·h from e along the boundary (not a neighbour);
 - a bed contact: a landed nose tip, a free-surface vertex on the bed y = 0 between two
-  free-surface edges (the mesh motion lands nodes exactly on the bed: no gap needed).
+  free-surface edges (the mesh motion lands nodes exactly on the bed: no gap needed);
+- a notch: a free-surface vertex p above the bed (behind the toe) closer to it than g, the
+  mass between them (a neck), at the bottom of a V of the free surface: its two neighbours
+  higher, and the surface at arc length g from p on either side at least NOTCH_RISE·y_p
+  high (a breaking front leaning over a thin nose, a notch of air reaching to the bed).
 
 The surgery (``operate``) then builds, with M the region of nonzero winding number of the
 boundary loop minus the existing holes (a folded loop's doubly covered part counts once),
 B = the bed solid y ≤ 0 (when the boundary has bed edges) and T the bridge triangles
 of each near contact: the convex hull of p, of q its closest point on e and of the points
 at distance g from p along its two edges and from q along e (so that it overlaps the mass,
-not only touches it):
+not only touches it); of each notch: the convex hull of the free surface within arc length
+g of p and of q = (x_p, 0), its foot on the bed (the notch's bottom filled up to the chord
+between the surface points at arc g: the neck closed onto the bed contact):
 
     U = M ∪ T ∪ B,    each interior ring R of U (a pocket of light fluid enclosed by the
                       mass, or by the mass and the bed): |R| < CLOSE_CELLS·(√3/4)h²
@@ -42,6 +48,9 @@ from dpcollapse.geometry.polygon import BoundaryPolygon, _orient, _signed_area, 
 CONTACT_GAP = 0.25
 #: ... and at least this many h apart along the boundary.
 CONTACT_ARC = 4.0
+#: A free-surface vertex p closer to the bed than the gap is a notch when the surface at arc
+#: length gap from it on either side is at least this many times higher than p.
+NOTCH_RISE = 2.0
 #: Pockets smaller than this many equilateral cells of side h are closed (a pocket that
 #: cannot be meshed around with cells of size h), larger ones kept.
 CLOSE_CELLS = 1.0
@@ -59,6 +68,7 @@ class Surgery:
     crossings: bool = False
     near_contacts: int = 0
     bed_contacts: int = 0
+    notches: int = 0
     closed_pockets: list[float] = field(default_factory=list)   # their areas [m²]
     kept_pockets: list[float] = field(default_factory=list)
     #: on a two-region mesh (``geometry.region_surgery``), per region name: its area before
@@ -77,6 +87,8 @@ class Surgery:
             what.append(f"{self.near_contacts} self-contact(s)")
         if self.bed_contacts:
             what.append(f"{self.bed_contacts} bed contact(s)")
+        if self.notches:
+            what.append(f"{self.notches} notch(es) closed to the bed")
         pockets = (f"{len(self.closed_pockets)} pocket(s) closed "
                    f"({sum(self.closed_pockets):.2e} m²), {len(self.kept_pockets)} kept as holes")
         return f"{', '.join(what)}; {pockets}; area {self.area_change:+.2e} m²"
@@ -146,10 +158,78 @@ def bed_contacts(points: np.ndarray, tags: np.ndarray) -> list[int]:
     return [int(k) for k in np.flatnonzero(surface_vertex & (p[:, 1] == 0.0))]
 
 
+def _on_bed_below(p: np.ndarray, tags: np.ndarray, k: int) -> int | None:
+    """The bed edge (on y = 0) under vertex k, or None (k ahead of the toe, or no bed)."""
+    a, b = p, np.roll(p, -1, axis=0)
+    under = ((tags == BED) & (a[:, 1] == 0.0) & (b[:, 1] == 0.0)
+             & (np.minimum(a[:, 0], b[:, 0]) <= p[k, 0]) & (np.maximum(a[:, 0], b[:, 0]) >= p[k, 0]))
+    hits = np.flatnonzero(under)
+    return int(hits[0]) if hits.size else None
+
+
+def _clear_below(p: np.ndarray, k: int) -> bool:
+    """No boundary edge other than vertex k's own crosses the open segment from p_k down to
+    the bed (x_k, 0)."""
+    x, y = p[k]
+    a, b = p, np.roll(p, -1, axis=0)
+    n = len(p)
+    own = np.zeros(n, dtype=bool)
+    own[[k, (k - 1) % n]] = True
+    span = (np.minimum(a[:, 0], b[:, 0]) <= x) & (np.maximum(a[:, 0], b[:, 0]) >= x) & ~own
+    span &= a[:, 0] != b[:, 0]
+    t = (x - a[span, 0]) / (b[span, 0] - a[span, 0])
+    yc = a[span, 1] + t * (b[span, 1] - a[span, 1])
+    return not np.any((yc > 0.0) & (yc < y))
+
+
+def _walk(p: np.ndarray, k: int, distance: float, step: int) -> np.ndarray:
+    """The loop's vertices from k (excluded) along direction ``step`` (±1) up to arc length
+    ``distance``, ending with the point at exactly that arc length (or where the loop ends)."""
+    n = len(p)
+    out, left, i = [], distance, k
+    for _ in range(n - 1):
+        j = (i + step) % n
+        d = float(np.hypot(*(p[j] - p[i])))
+        if d >= left:
+            out.append(p[i] + left / max(d, 1e-300) * (p[j] - p[i]))
+            break
+        out.append(p[j])
+        left -= d
+        i = j
+    return np.array(out).reshape(-1, 2)
+
+
+def notch_contacts(points: np.ndarray, tags: np.ndarray, mesh_size: float
+                   ) -> list[tuple[int, np.ndarray]]:
+    """Notches (module docstring): (vertex k, the free surface within arc length g of it on
+    both sides with p_k, in loop order), one per notch bottom."""
+    p = np.asarray(points, dtype=float)
+    tags = np.asarray(tags)
+    gap = CONTACT_GAP * mesh_size
+    surface_vertex = (tags == SURFACE) & (np.roll(tags, 1) == SURFACE)
+    y = p[:, 1]
+    bottom = (surface_vertex & (y > 0.0) & (y < gap)
+              & (np.roll(y, 1) > y) & (np.roll(y, -1) > y))
+    out = []
+    for k in np.flatnonzero(bottom):
+        k = int(k)
+        if _on_bed_below(p, tags, k) is None or not _clear_below(p, k):
+            continue
+        if _winding(p, [p[k, 0], 0.5 * p[k, 1]])[0] == 0:
+            continue                          # air under p: a near contact, not a neck
+        back, ahead = _walk(p, k, gap, -1), _walk(p, k, gap, +1)
+        if not (len(back) and len(ahead)):
+            continue
+        if min(back[-1, 1], ahead[-1, 1]) < NOTCH_RISE * y[k]:
+            continue                          # a shallow dip of a thin film, not a notch
+        out.append((k, np.vstack([back[::-1], p[k][None], ahead])))
+    return out
+
+
 def contact_kinds(poly: BoundaryPolygon, mesh_size: float,
                   holes: list[BoundaryPolygon] = ()) -> list[str]:
     """Which contacts (module docstring) the boundary has: "crossing", "self-contact",
-    "bed contact"; empty when none."""
+    "bed contact", "notch"; empty when none."""
     pts, tags = np.asarray(poly.points), np.asarray(poly.edge_tags)
     found = []
     if not polygon_is_simple(pts) or any(not polygon_is_simple(h.points) for h in holes):
@@ -158,6 +238,8 @@ def contact_kinds(poly: BoundaryPolygon, mesh_size: float,
         found.append("self-contact")
     if bed_contacts(pts, tags):
         found.append("bed contact")
+    if notch_contacts(pts, tags, mesh_size):
+        found.append("notch")
     return found
 
 
@@ -264,7 +346,8 @@ def operate(poly: BoundaryPolygon, mesh_size: float,
     crossing = not polygon_is_simple(pts) or any(not polygon_is_simple(h.points) for h in holes)
     near = near_contacts(pts, tags, mesh_size)
     bed = bed_contacts(pts, tags)
-    if not (crossing or near or bed):
+    notches = notch_contacts(pts, tags, mesh_size)
+    if not (crossing or near or bed or notches):
         return None
     area_before = loop_area(poly, list(holes))
     scale = float(np.ptp(pts, axis=0).max())
@@ -287,6 +370,9 @@ def operate(poly: BoundaryPolygon, mesh_size: float,
     pieces = [mass]
     for k, j, q in near:
         pieces.append(bridge(k, q, (pts[j], pts[(j + 1) % n])))
+    for k, window in notches:   # the notch's bottom filled, down to its foot on the bed
+        foot = np.array([[pts[k, 0], 0.0]])
+        pieces.append(shapely.MultiPoint(np.vstack([window, foot])).convex_hull)
     has_bed = bool(np.any((tags == BED) & (pts[:, 1] == 0.0) & (np.roll(pts[:, 1], -1) == 0.0)))
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     solid = box(lo[0] - scale, -scale, hi[0] + scale, 0.0) if has_bed else None
@@ -303,7 +389,7 @@ def operate(poly: BoundaryPolygon, mesh_size: float,
         else:
             kept.append(area)
             keep_rings.append(ring)
-    if not (crossing or near or closed):
+    if not (crossing or near or notches or closed):
         return None      # landed tips whose pockets are all kept: nothing to change
     union = Polygon(union.exterior, keep_rings)
     new = union.difference(solid) if solid is not None else union
@@ -322,5 +408,6 @@ def operate(poly: BoundaryPolygon, mesh_size: float,
         new_holes.append(BoundaryPolygon(hp, np.full(len(hp), SURFACE)))
     result = Surgery(outer, new_holes, area_before, loop_area(outer, new_holes),
                      crossings=crossing, near_contacts=len(near), bed_contacts=len(bed),
+                     notches=len(notches),
                      closed_pockets=closed, kept_pockets=kept)
     return result
