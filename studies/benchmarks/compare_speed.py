@@ -72,13 +72,16 @@ def _start(python: str, checkout: Path, out: Path, overrides: list[str],
     return proc, time.perf_counter()
 
 
-def _finish(started: tuple, checkout: Path, out: Path) -> dict:
-    """Wait for a run of ``_start``; wall and CPU time of the child process (its own
-    rusage), and its summary."""
+def _finish(started: tuple, checkout: Path, out: Path, ended: tuple | None = None) -> dict:
+    """Wait for a run of ``_start`` (``ended``: its (status, rusage, end time) if already
+    reaped); wall and CPU time of the child process (its own rusage), and its summary."""
     proc, t0 = started
-    _, status, usage = os.wait4(proc.pid, 0)
+    if ended is None:
+        _, status, usage = os.wait4(proc.pid, 0)
+        ended = (status, usage, time.perf_counter())
+    status, usage, t1 = ended
     _RUNNING.discard(proc)
-    wall = time.perf_counter() - t0
+    wall = t1 - t0
     proc.returncode = os.waitstatus_to_exitcode(status)
     if proc.returncode != 0:
         stderr = Path(f"{out}.err").read_text()
@@ -154,9 +157,17 @@ def main(argv=None) -> int:
                                         args.overrides + side[label], args.config)
                 if not args.concurrent:
                     started[label] = _finish(started[label], checkouts[label], out)
+            if args.concurrent:    # each run's wall time ends when it ends, whichever first
+                pids = {started[label][0].pid: label for label in order}
+                while pids:
+                    pid, status, usage = os.wait4(-1, 0)
+                    if pid in pids:
+                        label = pids.pop(pid)
+                        started[label] = _finish(started[label], checkouts[label],
+                                                 (args.keep or tmp) / f"{label}_{k}",
+                                                 (status, usage, time.perf_counter()))
             for label in order:
-                r = started[label] if not args.concurrent else \
-                    _finish(started[label], checkouts[label], (args.keep or tmp) / f"{label}_{k}")
+                r = started[label]
                 results[label].append(r)
                 print(f"round {k + 1} {label}: wall {r['wall']:.2f} s, cpu {r['cpu']:.2f} s, "
                       f"{r['steps']} steps, {r['lu']} LU, {r['rejected']} rejected, "
