@@ -66,8 +66,12 @@ class SizeField:
         if len(granular) == 0:
             return np.full(len(points), self.max_cell)
         # each distinct point once (the background grid repeats its vertices), and no search
-        # beyond the distance where h reaches max_cell (cKDTree returns inf there)
-        unique, inverse = np.unique(points, axis=0, return_inverse=True)
+        # beyond the distance where h reaches max_cell (cKDTree returns inf there); the pairs
+        # (x, y) compared as complex numbers: the same points as np.unique(axis=0) sorted the
+        # same way, 6× faster (2026-12-07-adaptive-column-speed.md)
+        pairs = np.ascontiguousarray(points, dtype=float).view(np.complex128).ravel()
+        unique, inverse = np.unique(pairs, return_inverse=True)
+        unique = unique.view(np.float64).reshape(-1, 2)
         reach = self.band + (self.max_cell - self.min_cell) / self.grading
         d, _ = cKDTree(granular).query(unique, distance_upper_bound=reach * (1 + 1e-9))
         h = np.minimum(self.max_cell, self.min_cell + self.grading * np.maximum(d - self.band, 0.0))

@@ -26,6 +26,26 @@ def test_size_field_by_hand():
     np.testing.assert_allclose(size(points, np.zeros((0, 2))), [0.05] * 3)
 
 
+def test_size_field_on_the_background_grid_equals_the_formula_at_every_vertex():
+    """The size field reads each distinct point once (the background grid repeats its vertices:
+    they are compared as pairs): at every vertex of the grid, repeated or not, in any memory
+    layout (a transposed view, integers), h equals the formula with d by brute force."""
+    from dpcollapse.domain.adaptive_box import background_grid
+
+    size = SizeField(0.01, 0.05, band=0.02, grading=0.3)
+    rng = np.random.default_rng(0)
+    grains = rng.random((40, 2)) * [0.1, 0.05]
+    points = background_grid(0.4, 0.2, 0.02).reshape(-1, 2)
+    d = np.linalg.norm(points[:, None] - grains[None], axis=2).min(axis=1)
+    expected = np.minimum(0.05, 0.01 + 0.3 * np.maximum(d - 0.02, 0.0))
+    np.testing.assert_allclose(size(points, grains), expected, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(size(np.asfortranarray(points), grains), expected, rtol=0, atol=1e-15)
+    whole = np.array([[0, 0], [1, 0], [0, 0], [0, 1]])   # integers [m], one repeated
+    d = np.linalg.norm(whole[:, None] - grains[None], axis=2).min(axis=1)
+    np.testing.assert_allclose(size(whole, grains), rtol=0, atol=1e-15, desired=
+                                  np.minimum(0.05, 0.01 + 0.3 * np.maximum(d - 0.02, 0.0)))
+
+
 @pytest.mark.mpi
 def test_adaptive_box_is_fine_over_the_grains_and_coarse_far_away():
     comm = MPI.COMM_WORLD
