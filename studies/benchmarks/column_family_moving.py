@@ -9,6 +9,7 @@ Report: docs/benchmarks/2026-12-07-column-family-moving-mesh.md.
     python studies/benchmarks/column_family_moving.py commands --rheology drucker_prager [...]
     python studies/benchmarks/column_family_moving.py figure-dp OUT.png DP.csv LADDER.csv
     python studies/benchmarks/column_family_moving.py fronts H1,H2,... RUN_DIR...   (x_f - L0 at h [m])
+    python studies/benchmarks/column_family_moving.py deposits OUT.png RUN_DIR...   (last meshes' h(x))
 
 ``commands`` prints one ``dpcollapse run`` line per case (a, bed, cells L0/n), each under
 ``/usr/bin/time`` (CPU seconds into RUN_DIR.time) and ``nice``/``timeout``; the run
@@ -37,6 +38,10 @@ columns and beds with the Drucker–Prager material of the ladder's columns (``c
 ``runs/dpfam``. ``figure-dp`` draws that family (thickness front at ΔX/4 and at 6 mm, H_f/L0)
 beside the ladder's Drucker–Prager columns (``docs/figures/ladder.csv``: the two-phase rung's
 c > ½ front and the 2D rung's front, L0 = 0.07 m, Coulomb bed tan 25.5°) and the bands.
+
+``deposits`` draws the last mesh's thickness profile h(x) of each run, one panel per column
+(rheology, a, bed), a line per resolution, with the thickness front at the run's
+``film_threshold`` marked (report 2026-12-07-column-family-closure.md).
 """
 
 from __future__ import annotations
@@ -313,6 +318,34 @@ def figure_dp(out: Path, dp_csv: Path, ladder_csv: Path) -> None:
     fig.savefig(out, dpi=120)
 
 
+def deposits(out: Path, run_dirs: list[Path]) -> None:
+    """h(x)/L0 of each run's last mesh (``mesh_thickness_profile``), a panel per column."""
+    panels: dict[str, list] = {}
+    for d in run_dirs:
+        info = json.loads((d / "run.json").read_text())
+        cfg, summ = info["config"], info["summary"]
+        g = cfg["geometry"]
+        l0 = g["base_length"]
+        t, x, cells = read_series(d)[-1]
+        xs, h = mesh_thickness_profile(x, cells)
+        rheology = "DP" if cfg["material"]["rheology"] == "drucker_prager" else "μ(I)"
+        bed = cfg["boundary"]["bed_condition"].replace("_", " ")
+        key = f"{rheology}, a = {g['height'] / l0:.3g}, {bed}"
+        panels.setdefault(key, []).append(
+            (f"L0/{l0 / g['mesh_size']:.3g}, {summ['status']} t = {t:.3f} s", xs / l0, h / l0,
+             (summ["thick_front"] / l0, summ["film_threshold"] / l0)))
+    fig, axes = plt.subplots(len(panels), 1, figsize=(10, 2.6 * len(panels)), squeeze=False)
+    for ax, (key, lines) in zip(axes[:, 0], panels.items()):
+        for i, (label, xs, h, (xf, hf)) in enumerate(lines):
+            ax.plot(xs, h, color=f"C{i}", lw=1.2, label=label)
+            ax.plot([xf], [hf], "|", color=f"C{i}", ms=14, mew=2)
+        ax.set_title(key, fontsize=9), ax.set_ylabel("h/L0")
+        ax.grid(alpha=0.3), ax.legend(fontsize=7, loc="upper right")
+    axes[-1, 0].set_xlabel("x/L0 (bars: the thickness front at the run's film_threshold)")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
 def main(argv: list[str]) -> None:
     kind = argv[0] if argv else ""
     if kind == "commands":
@@ -354,6 +387,8 @@ def main(argv: list[str]) -> None:
                                                   for v, r in zip(hs, runout)))
     elif kind == "figure-dp":
         figure_dp(Path(argv[1]), Path(argv[2]), Path(argv[3]))
+    elif kind == "deposits":
+        deposits(Path(argv[1]), [Path(d) for d in argv[2:]])
     else:
         sys.exit(__doc__)
 
