@@ -101,7 +101,7 @@ class SizeField:
             return np.full(len(points), self.max_cell)
         h = _graded(points, granular, self.min_cell, self.max_cell, self.band, self.grading)
         if self.layer_cell and thin is not None and len(thin):
-            h = np.minimum(h, _graded(points, thin, self.layer_cell, self.min_cell,
+            h = np.minimum(h, _graded(points, thin, self.layer_cell, self.max_cell,
                                       self.layer_band, self.grading))
         return h
 

@@ -147,9 +147,11 @@ def test_layer_cell_refines_the_thin_layer_and_not_the_thick_column():
         h, (mx, my) = equivalent_size(new), new.mean(axis=1).T
         tongue = (mx > 0.15) & (mx < 0.25) & (my < 0.004)
         body = (mx > 0.02) & (mx < 0.06) & (my > 0.03) & (my < 0.07)
-        sizes[layer] = (float(h[tongue].max()), float(np.median(h[body])))
+        far = (mx > 0.35) & (my > 0.1)
+        sizes[layer] = (float(h[tongue].max()), float(np.median(h[body])), float(h[far].min()))
     assert sizes[h_l][0] < 1.5 * h_l                 # the tongue: the second level
     assert sizes[h_l][1] > 0.8 * h_min               # the column's body: h_min, not h_l
+    assert sizes[h_l][2] > 2 * h_min                 # far from both: still coarse
     assert sizes[None][0] > 3 * h_l                  # off: the tongue in cells of h_min
     assert sizes[None][1] == pytest.approx(sizes[h_l][1], rel=0.1)
 
