@@ -1,7 +1,7 @@
 """Issue 50: the two-phase column's tongue resolved by ``model.layer_cell``, against the moving mesh.
 
     python studies/benchmarks/two_phase/tongue_resolution.py RESULTS.jsonl [--case column_a2_mui]
-                                                            [--work runs/tongue] [--figure PNG]
+                                     [--work runs/tongue] [--figure PNG] [--stopped LABEL ...]
 
 Reads the runs of ``columns_cause.py`` (one JSON line each in RESULTS.jsonl, run directories
 ``WORK/CASE_tp_LABEL``) and, from each run's final checkpoint (checkpoint.npz: the mesh and c),
@@ -11,7 +11,9 @@ its fronts x_f − L0 at h ≥ 1, 2, 5 mm (``fronts.profile_front``) and the mas
 furthest vertex of a cell with c > ½), and prints them beside the stored moving-mesh rung's
 (docs/figures/ladder_series.csv: its profile h(x); its mesh tip, ladder.csv's front_2d_mesh)
 as a Markdown table. ``--figure``: the deposits' thin ends h(x) and the mass fronts over time
-(diagnostics.csv's ``front``) beside the moving mesh's.
+(diagnostics.csv's ``front``) beside the moving mesh's; a run that did not end at rest (stopped
+by its time limit: ``--stopped LABEL``, its run directory without a JSON line, run.json
+``interrupted``) shows its front history only, its state is no deposit.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[3]))  # studies/ is not installed
 from dpcollapse.fronts import profile_front  # noqa: E402
@@ -61,6 +64,7 @@ def main(argv=None) -> int:
     ap.add_argument("--case", default="column_a2_mui")
     ap.add_argument("--work", default="runs/tongue")
     ap.add_argument("--figure")
+    ap.add_argument("--stopped", nargs="*", default=[])
     args = ap.parse_args(argv)
     case = next(c for c in ladder.full_plan() if c.name == args.case)
     l0 = case.load().geometry.base_length
@@ -80,6 +84,11 @@ def main(argv=None) -> int:
     shown = []
     for r in runs:
         run_dir = Path(args.work) / f"{args.case}_tp_{r['label']}"
+        if r["status"] != "at_rest":
+            print(f"| {r['label']} | {r['overrides']} | {r['status']} at t = {r['t_end']:.3f} s, "
+                  f"{r['steps']} steps, {r['cpu']:.0f} s CPU: no deposit | drift {r['drift']:.1e} |")
+            shown.append((r["label"], r["overrides"][-1].split("=")[1], None, run_dir))
+            continue
         m = measure(run_dir, l0)
         layer = next((o.split("=")[1] for o in r["overrides"] if o.startswith("model.layer_cell=")), "off")
         cells = " | ".join(f"{f:.4f} ({100 * (f / g - 1):+.1f} %)" for f, g in zip(m["fronts"], ref_fronts))
@@ -89,6 +98,14 @@ def main(argv=None) -> int:
               f"{r['status']}, {r['t_end']:.3f} s, {r['steps']}, {r['cpu']:.0f} s | {r['drift']:.1e} | "
               f"{m['cells']} |")
         shown.append((r["label"], layer, m, run_dir))
+    for label in args.stopped:
+        run_dir = Path(args.work) / f"{args.case}_tp_{label}"
+        layer = yaml.safe_load((run_dir / "config.yaml").read_text())["model"]["layer_cell"]
+        state = json.loads((run_dir / "run.json").read_text())
+        t = read_diagnostics(run_dir / "diagnostics.csv")["t"]
+        print(f"| {label} | {layer} | {state['status']} at t = {float(t[-1]):.3f} s, {len(t)} steps: "
+              "no deposit |")
+        shown.append((label, layer, None, run_dir))
     if args.figure:
         figure(args.figure, shown, ref, series[(args.case, "2d", "front")], l0, args.case)
     return 0
@@ -103,10 +120,12 @@ def figure(path: str, shown, ref: np.ndarray, ref_front: np.ndarray, l0: float, 
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 4.2))
     ax.plot(ref[:, 0] - l0, 1e3 * ref[:, 1], "k-", lw=2, label="moving mesh (stored rung)")
     for label, layer, m, run_dir in shown:
-        ax.plot(m["x"] - l0, 1e3 * m["h"], label=f"two-phase, layer cell {layer}")
+        if m is not None:
+            ax.plot(m["x"] - l0, 1e3 * m["h"], label=f"two-phase, layer cell {layer}")
         diag = read_diagnostics(run_dir / "diagnostics.csv")
         t, front = np.asarray(diag["t"], dtype=float), np.asarray(diag["front"], dtype=float)
-        bx.plot(t, front - l0, label=f"two-phase c > ½, layer cell {layer}")
+        bx.plot(t, front - l0, label=f"two-phase c > ½, layer cell {layer}"
+                + ("" if m is not None else " (stopped)"))
     bx.plot(ref_front[:, 0], ref_front[:, 1] - l0, "k-", lw=2, label="moving mesh (stored rung)")
     for t in (1, 2, 5):
         ax.axhline(t, color="0.7", lw=0.6, ls=":")
