@@ -188,7 +188,8 @@ class TwoPhaseModel(_Section):
         2.0, "", "compression_direction layer_normal / skip_layers (and interface_normal "
         "height_function): a layer whose thickness (the column "
         "integral of c over a strip of the fine cell's width) is below this many fine cells is thin "
-        "(2: the vertex average of c spans a cell on either side)", gt=0, le=20)
+        "(2: the vertex average of c spans a cell on either side); also where layer_cell refines",
+        gt=0, le=20)
     open_top: Literal["traction_free", "hydrostatic"] = _f(
         "hydrostatic", "", "The open top's traction: hydrostatic (the default since 2026-12-07: "
         "sigma n = -p_a n, p_a = rho_a f.(x - x_ref) the light fluid at rest, zero at the highest "
@@ -208,6 +209,12 @@ class TwoPhaseModel(_Section):
     max_cell: Number | None = _f(
         None, "m", "Adaptive mesh: cell size in the light fluid far from the granular phase "
         "(null: geometry.mesh_size)", gt=0)
+    layer_cell: Number | None = _f(
+        None, "m", "Adaptive mesh: a second, finer level of cells of this size in the thin layers "
+        "(a grain column thinner than thin_layer_cells min_cell, e.g. the tongue on the bed ahead "
+        "of the deposit's body) and a band of refine_band of these cells around them (null: off; "
+        "below min_cell, at least min_cell/16; docs/model.md, "
+        "docs/benchmarks/2026-12-07-two-phase-tongue-resolution.md)", gt=0)
     refine_fraction: Number = _f(
         0.01, "", "Adaptive mesh: cells with c above this are refined (with their band)", gt=0, lt=1)
     refine_band: Number = _f(

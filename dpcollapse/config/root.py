@@ -187,6 +187,7 @@ class Config(_Section):
     def _two_phase(self) -> None:
         """The fixed box must contain the column; the rest is refused (one line each)."""
         g, m = self.geometry, self.model
+        self._layer_cell()
         if self.output.format != "xdmf":
             raise ConfigError(f"output.format = {self.output.format!r}: must be 'xdmf' with "
                               "model.name = two_phase")
@@ -213,6 +214,20 @@ class Config(_Section):
                               "of model.box_length and model.box_height with model.name = two_phase")
         refuse_too_large(first_mesh(self))
         self._unused_numerics("two_phase", allowed=("regularized", "picard"))
+
+    def _layer_cell(self) -> None:
+        """``model.layer_cell``: the adaptive box's second level, finer than ``min_cell`` by at
+        most 16 (the thin layers' cells; ``domain.adaptive_box``)."""
+        m = self.model
+        if m.layer_cell is None:
+            return
+        if m.min_cell is None or m.min_cell >= (m.max_cell or self.geometry.mesh_size):
+            raise ConfigError(f"model.layer_cell = {_fmt(m.layer_cell)}: needs the adaptive box "
+                              "(model.min_cell below model.max_cell); must be null without it")
+        if not m.min_cell / 16 <= m.layer_cell < m.min_cell:
+            raise ConfigError(f"model.layer_cell = {_fmt(m.layer_cell)}: must be in "
+                              f"[{m.min_cell / 16:g}, {m.min_cell:g}) m (model.min_cell/16 to below "
+                              "model.min_cell; null: off)")
 
     def _unused_numerics(self, model: str, allowed: tuple[str, ...] = ()) -> None:
         """Refuse numerics keys set to a non-default value that ``model`` does not read

@@ -132,3 +132,72 @@ def test_the_thickness_front_is_every_model_s_front():
     assert got == profile_front((np.arange(disc.nx) + 0.5) * disc.dx_bin, h, disc.thick_floor)
     assert got == pytest.approx(0.108, abs=1e-8)
     disc.destroy()
+
+
+def _column_and_tongue(spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """Triangles of [0, 0.4] × [0, 0.2] (structured, ``spacing``) and c = 1 in a column
+    [0, 0.1] × [0, 0.1] and a tongue [0.1, 0.3] × [0, 4 mm] on the bed (by centroid)."""
+    from dpcollapse.domain.adaptive_box import background_grid
+
+    tri = background_grid(0.4, 0.2, spacing)
+    x, y = tri.mean(axis=1).T
+    c = (((x < 0.1) & (y < 0.1)) | ((x < 0.3) & (y < 0.004))).astype(float)
+    return tri, c
+
+
+def test_layer_cell_refines_the_thin_layer_and_not_the_thick_column():
+    """Issue 50, ``model.layer_cell``: on strips of h_min the column (h = 0.1 m) is thick and
+    the tongue (h ≈ 5 mm < 2 h_min) thin; the box meshed with the second level has cells of
+    about h_l = 2.5 mm in the tongue and keeps h_min = 1 cm in the column's body; without it
+    (``layer_cell`` None) the tongue has cells of h_min."""
+    from dpcollapse.domain.adaptive_box import thin_layer_cells
+
+    h_min, h_l = 0.01, 0.0025
+    tri, c = _column_and_tongue(h_min)
+    thin = thin_layer_cells(tri, c, 0.01, h_min, 2 * h_min)
+    x, y = tri.mean(axis=1).T
+    assert thin[(x > 0.12) & (x < 0.28) & (c > 0)].all()
+    assert not thin[x < 0.09].any()          # the column's strips
+    granular, seeds = tri[c > 0.01].mean(axis=1), tri[thin].mean(axis=1)
+    sizes = {}
+    for layer in (h_l, None):
+        size = SizeField(h_min, 0.05, band=4 * h_min, grading=0.3, layer_cell=layer)
+        mesh = adaptive_box(MPI.COMM_SELF, 0.4, 0.2, size, granular, seeds).mesh
+        new = owned_triangles(mesh)
+        h, (mx, my) = equivalent_size(new), new.mean(axis=1).T
+        tongue = (mx > 0.15) & (mx < 0.25) & (my < 0.004)
+        body = (mx > 0.02) & (mx < 0.06) & (my > 0.03) & (my < 0.07)
+        far = (mx > 0.35) & (my > 0.1)
+        sizes[layer] = (float(h[tongue].max()), float(np.median(h[body])), float(h[far].min()))
+    assert sizes[h_l][0] < 1.5 * h_l                 # the tongue: the second level
+    assert sizes[h_l][1] > 0.8 * h_min               # the column's body: h_min, not h_l
+    assert sizes[h_l][2] > 2 * h_min                 # far from both: still coarse
+    assert sizes[None][0] > 3 * h_l                  # off: the tongue in cells of h_min
+    assert sizes[None][1] == pytest.approx(sizes[h_l][1], rel=0.1)
+
+
+@pytest.mark.parametrize("over, message", [
+    (["model.min_cell=0.004", "model.layer_cell=0.004"], "model.layer_cell = 0.004: must be in"),
+    (["model.min_cell=0.004", "model.layer_cell=0.0002"], "model.layer_cell = 0.0002: must be in"),
+    (["model.layer_cell=0.001"], "model.layer_cell = 0.001: needs the adaptive box"),
+])
+def test_layer_cell_out_of_range_is_one_line(over, message):
+    with pytest.raises(ConfigError, match=message):
+        load_config(CONFIG, over)
+
+
+@pytest.mark.mpi
+def test_thin_layer_columns_are_summed_over_the_ranks():
+    """The strips' columns of ``thin_layer_cells`` are those of the whole box when each rank
+    holds a share of the cells (drawn at random): the same mask as on one rank. Thin below
+    7 cm: the column (0.1 m) is thick, each rank's half of it (5 cm) would not be."""
+    from dpcollapse.domain.adaptive_box import thin_layer_cells
+
+    comm = MPI.COMM_WORLD
+    tri, c = _column_and_tongue(0.01)
+    whole = thin_layer_cells(tri, c, 0.01, 0.01, 0.07)
+    x = tri.mean(axis=1)[:, 0]
+    assert whole[(x > 0.12) & (c > 0)].all() and not whole[x < 0.09].any()
+    mine = np.random.default_rng(5).integers(comm.size, size=len(tri)) == comm.rank
+    np.testing.assert_array_equal(thin_layer_cells(tri[mine], c[mine], 0.01, 0.01, 0.07, comm),
+                                  whole[mine])

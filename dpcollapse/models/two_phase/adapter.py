@@ -91,7 +91,8 @@ def is_adaptive(cfg) -> bool:
 def adaptive_domain(cfg, box: tuple[float, float]) -> AdaptiveBox:
     m = cfg.model
     fine, coarse = cell_sizes(cfg)
-    size = SizeField(fine, coarse, m.refine_band * fine, m.refine_grading)
+    size = SizeField(fine, coarse, m.refine_band * fine, m.refine_grading,
+                     layer_cell=m.layer_cell, thin_cells=m.thin_layer_cells)
     return AdaptiveBox(*box, size, m.refine_fraction, m.remesh_every)
 
 
