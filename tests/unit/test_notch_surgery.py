@@ -8,26 +8,14 @@ import numpy as np
 import pytest
 
 from dpcollapse.geometry.mesher import BED, SURFACE, WALL
-from dpcollapse.geometry.polygon import BoundaryPolygon, polygon_is_simple
+from dpcollapse.geometry.polygon import polygon_is_simple
 from dpcollapse.geometry.surgery import CONTACT_GAP, notch_contacts, operate, surgery_needed
+from tests.unit.test_surgery import _densify
 
 pytest.importorskip("shapely")
 
 H = 0.1                 # the mesh size [m]
 NECK = 0.01 * H         # the neck under the notch's bottom (a = 10: 0.08 mm at ΔX = 7.5 mm)
-
-
-def _densify(corners, tags, h):
-    """A polygon through ``corners`` with every edge split into pieces ≤ h (same tag)."""
-    pts, out_tags = [], []
-    n = len(corners)
-    for i in range(n):
-        a, b = np.asarray(corners[i], float), np.asarray(corners[(i + 1) % n], float)
-        k = max(1, int(math.ceil(np.hypot(*(b - a)) / h - 1e-9)))
-        for s in range(k):
-            pts.append(a + (b - a) * s / k)
-            out_tags.append(tags[i])
-    return BoundaryPolygon(np.array(pts), np.array(out_tags))
 
 
 def _notch(neck=NECK, face_angle=70.0):
