@@ -202,12 +202,15 @@ def _thin_mask(fraction, size: SizeField, threshold: float) -> np.ndarray:
                             size.min_cell, size.thin_cells * size.min_cell, fraction.comm)
 
 
-def thin_centroids(fraction, size: SizeField, threshold: float) -> np.ndarray | None:
+def thin_centroids(fraction, size: SizeField, threshold: float,
+                   mask: np.ndarray | None = None) -> np.ndarray | None:
     """The centroids of the thin layers' granular cells of every rank, on every rank (None
-    without ``size.layer_cell``)."""
+    without ``size.layer_cell``); ``mask``: those owned cells when already known."""
     if not size.layer_cell:
         return None
-    own = owned_triangles(fraction.mesh)[_thin_mask(fraction, size, threshold)].mean(axis=1)
+    if mask is None:
+        mask = _thin_mask(fraction, size, threshold)
+    own = owned_triangles(fraction.mesh)[mask].mean(axis=1)
     return np.concatenate(fraction.comm.allgather(own)).reshape(-1, 2)
 
 
@@ -235,11 +238,11 @@ class AdaptiveBox(FixedDomain):
         fraction = disc.fraction
         tri = owned_triangles(fraction.mesh)
         granular = fraction.owned_values() > self.threshold
-        size = equivalent_size(tri)
-        coarse = bool(np.any(size[granular] > REFINED * self.size.min_cell))
+        coarse = bool(np.any(equivalent_size(tri[granular]) > REFINED * self.size.min_cell))
+        thin = None
         if self.size.layer_cell:
             thin = _thin_mask(fraction, self.size, self.threshold)
-            coarse = coarse or bool(np.any(size[thin] > REFINED * self.size.layer_cell))
+            coarse = coarse or bool(np.any(equivalent_size(tri[thin]) > REFINED * self.size.layer_cell))
         coarse = fraction.comm.allreduce(coarse, op=MPI.LOR)
         since = state.step - max(state.last_remesh_step, 0)
         reason = None
@@ -249,7 +252,7 @@ class AdaptiveBox(FixedDomain):
             reason = f"{self.every} steps"
         if reason:
             self._centroids = granular_centroids(fraction, self.threshold)
-            self._thin = thin_centroids(fraction, self.size, self.threshold)
+            self._thin = thin_centroids(fraction, self.size, self.threshold, thin)
         return reason
 
     def remesh(self, tagged, area0: float):
